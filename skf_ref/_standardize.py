@@ -1,0 +1,67 @@
+"""The standardization step of the SKF: the one home of eqs. (6)-(7).
+
+Every path computes the raw weight vector ``w_t = diag(P^{-1/2} K S K^T P^{-1/2})`` its own way
+(dense: from the matrices; spectral: from singular values) and then calls :func:`standardize`.
+"""
+
+import numpy as np
+from scipy import linalg
+
+__all__: list[str] = []
+
+
+def standardize(w, whitened, exponent):
+    """Apply eqs. (7) and (6) to raw weights and whitened means.
+
+    Parameters
+    ----------
+    w : ndarray, shape (n_sources,) or (n_sources, n_times)
+        ``diag(P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2})``.
+    whitened : ndarray, same shape as ``w``
+        ``P_{t|t-1}^{-1/2} x``.
+    exponent : float
+        The standardization exponent alpha.
+
+    Returns
+    -------
+    weights : ndarray, same shape as ``w``
+        The diagonal of ``W_t^(alpha) = Diag(w_t ** -alpha)`` (7).
+    z : ndarray, same shape as ``w``
+        ``W_t^(alpha) P_{t|t-1}^{-1/2} x`` (6).
+
+    Examples
+    --------
+    >>> weights, z = standardize(np.array([0.25, 1.0]), np.array([1.0, 2.0]), 0.5)
+    >>> weights.tolist(), z.tolist()
+    ([2.0, 1.0], [2.0, 2.0])
+    """
+    # W_t^(alpha) = Diag(w_t)^(-alpha)                                     (7)
+    weights = w ** (-exponent)
+    # z = W_t^(alpha) P^{-1/2} x                                            (6)
+    return weights, weights * whitened
+
+
+def inverse_sqrt(P):
+    """Symmetric inverse square root ``P^{-1/2}`` of an SPD matrix, by ``eigh``.
+
+    Parameters
+    ----------
+    P : ndarray, shape (n, n)
+        Symmetric positive definite.
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        Symmetric ``M`` with ``M @ P @ M = I``.
+
+    Examples
+    --------
+    >>> inverse_sqrt(np.diag([4.0, 0.25])).tolist()
+    [[0.5, 0.0], [0.0, 2.0]]
+    """
+    eigenvalues, eigenvectors = linalg.eigh(P)
+    if eigenvalues[0] <= 0:
+        raise np.linalg.LinAlgError(
+            f"covariance is not positive definite (smallest eigenvalue {eigenvalues[0]:.3g})"
+        )
+    return (eigenvectors / np.sqrt(eigenvalues)) @ eigenvectors.T
