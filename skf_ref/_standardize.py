@@ -10,6 +10,17 @@ from scipy import linalg
 __all__: list[str] = []
 
 
+def standardization_weights(w, exponent):
+    """The diagonal of ``W_t^(alpha) = Diag(w_t)^(-alpha)``, eq. (7).
+
+    Examples
+    --------
+    >>> standardization_weights(np.array([0.25, 4.0]), 0.5).tolist()
+    [2.0, 0.5]
+    """
+    return w ** (-exponent)
+
+
 def standardize(w, whitened, exponent):
     """Apply eqs. (7) and (6) to raw weights and whitened means.
 
@@ -36,7 +47,7 @@ def standardize(w, whitened, exponent):
     ([2.0, 1.0], [2.0, 2.0])
     """
     # W_t^(alpha) = Diag(w_t)^(-alpha)                                     (7)
-    weights = w ** (-exponent)
+    weights = standardization_weights(w, exponent)
     # z = W_t^(alpha) P^{-1/2} x                                            (6)
     return weights, weights * whitened
 

@@ -81,7 +81,9 @@ def check_spd(name, value, n):
     try:
         linalg.cholesky(matrix, lower=True)
     except linalg.LinAlgError as err:
-        raise ValueError(f"{name} must be positive definite (its Cholesky factorization failed)") from err
+        raise ValueError(
+            f"{name} must be positive definite (its Cholesky factorization failed)"
+        ) from err
     return (matrix + matrix.T) / 2
 
 

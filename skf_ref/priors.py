@@ -146,7 +146,7 @@ def priors_from_snr(L, noise_std, pm_snr_db, ep_snr_db, n_steps, convention="gai
     >>> theta0, q = priors_from_snr(L, 0.1, pm_snr_db=0.0, ep_snr_db=20.0, n_steps=41)
     >>> prior_power = theta0 * np.sum(L**2)          # E||L x||^2 with x ~ N(0, theta0 I)
     >>> noise_power = 0.1**2 * 32                   # E||r||^2
-    >>> round(prior_power / noise_power, 12), round(q / theta0 * 41, 12)
+    >>> float(round(prior_power / noise_power, 12)), round(q / theta0 * 41, 12)
     (1.0, 100.0)
     """
     noise_std = check_real("noise_std", noise_std, positive=True)

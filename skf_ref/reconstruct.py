@@ -4,7 +4,7 @@ import os
 
 import numpy as np
 
-from . import dense, kalman
+from . import dense, kalman, spectral
 from ._validation import (
     check_array,
     check_choice,
@@ -18,8 +18,7 @@ from ._validation import (
 __all__ = ["reconstruct", "SMOOTHERS", "METHODS"]
 
 SMOOTHERS = (None, "rts-standardized", "rts-state")
-METHODS = ("auto", "filterpy", "dense")
-_PATHS = {"filterpy": kalman.run, "dense": dense.run}
+METHODS = ("auto", "filterpy", "dense", "spectral")
 
 
 def available_memory():
@@ -93,9 +92,11 @@ def reconstruct(
     smoother : {None, "rts-standardized", "rts-state"}
         ``"rts-standardized"`` is the paper's smoother over the standardized sequence;
         ``"rts-state"`` the textbook RTS on the state, standardized afterwards.
-    method : {"auto", "filterpy", "dense"}
-        Computational path; all give the same result to rounding. ``"auto"`` picks
-        ``"dense"``.
+    method : {"auto", "filterpy", "dense", "spectral"}
+        Computational path; all give the same result to rounding. ``"spectral"`` (exact,
+        fast, memory O(n r + n T)) needs scalar (isotropic) ``transition``, ``q`` and
+        ``theta0``; ``"auto"`` takes it whenever the model qualifies and ``"dense"``
+        otherwise. ``"filterpy"`` is the filterpy subclass.
     transition : float or array_like, shape (n_sources, n_sources)
         ``A = transition * I`` for a scalar (1: random walk, eq. 8), else the matrix.
     memory_limit : float, optional
@@ -133,9 +134,17 @@ def reconstruct(
     exponent = check_real("exponent", exponent, nonnegative=True)
     check_choice("smoother", smoother, SMOOTHERS)
     check_choice("method", method, METHODS)
+    problem = spectral.qualification_problem(A, q, theta0)
     if method == "auto":
-        method = "dense"
+        method = "dense" if problem else "spectral"
+    if method == "spectral":
+        if problem:
+            raise ValueError(
+                f"method='spectral' needs A = a I, Q = q I, P_0 = theta0 I: {problem}"
+            )
+        return spectral.run(L, Y, R, A, q, theta0, exponent, smoother)
     _check_memory(method, n, Y.shape[1], memory_limit)
-    return _PATHS[method](
+    path = kalman.run if method == "filterpy" else dense.run
+    return path(
         L, Y, R, _as_matrix(A, n), _as_matrix(q, n), _as_matrix(theta0, n), exponent, smoother
     )

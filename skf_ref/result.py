@@ -1,17 +1,17 @@
 """The result type every computational path returns."""
 
-from dataclasses import dataclass
-
 import numpy as np
 
 __all__ = ["Reconstruction"]
 
 
-@dataclass(frozen=True, eq=False)
 class Reconstruction:
     """A standardized Kalman filter reconstruction.
 
-    All source-space arrays have shape (n_sources, n_times), MNE's layout.
+    All source-space arrays have shape (n_sources, n_times), MNE's layout. A path may hand
+    any of them over as a zero-argument function instead of an array: it is then computed on
+    first access and kept (the spectral path does this, so that asking for ``z`` at 150 000
+    sources does not also materialize four other arrays of the same size).
 
     Attributes
     ----------
@@ -36,25 +36,52 @@ class Reconstruction:
         The path that computed it: ``"filterpy"``, ``"dense"`` or ``"spectral"``.
     """
 
-    z: np.ndarray
-    x: np.ndarray
-    z_filtered: np.ndarray
-    x_filtered: np.ndarray
-    weights: np.ndarray
-    log_likelihood: float
-    exponent: float
-    smoother: str | None
-    method: str
+    _ARRAYS = ("z", "x", "z_filtered", "x_filtered", "weights")
+
+    def __init__(
+        self, *, z, x, z_filtered, x_filtered, weights, log_likelihood, exponent, smoother, method
+    ):
+        self._arrays = dict(
+            z=z, x=x, z_filtered=z_filtered, x_filtered=x_filtered, weights=weights
+        )
+        self.log_likelihood = log_likelihood
+        self.exponent = exponent
+        self.smoother = smoother
+        self.method = method
+
+    def _array(self, name):
+        value = self._arrays[name]
+        if callable(value):
+            value = self._arrays[name] = value()
+        return value
+
+    z = property(lambda self: self._array("z"), doc="Standardized (smoothed) estimate.")
+    x = property(lambda self: self._array("x"), doc="Unstandardized (smoothed) means.")
+    z_filtered = property(lambda self: self._array("z_filtered"), doc="Filtered z_{t|t}.")
+    x_filtered = property(lambda self: self._array("x_filtered"), doc="Filtered x_{t|t}.")
+    weights = property(lambda self: self._array("weights"), doc="Diagonal of W_t^(alpha).")
+
+    def __repr__(self):
+        return (
+            f"<Reconstruction | {self.n_sources} sources x {self.n_times} steps, "
+            f"method={self.method!r}, exponent={self.exponent}, smoother={self.smoother!r}>"
+        )
+
+    @property
+    def shape(self):
+        """(n_sources, n_times), read off an array already computed where there is one."""
+        ready = [a for a in self._arrays.values() if not callable(a)]
+        return (ready[0] if ready else self.z).shape
 
     @property
     def n_sources(self):
         """Number of state components (columns of the lead field)."""
-        return self.z.shape[0]
+        return self.shape[0]
 
     @property
     def n_times(self):
         """Number of time steps."""
-        return self.z.shape[1]
+        return self.shape[1]
 
     def amplitude(self, components=1, *, filtered=False):
         """Per-position amplitude: the Euclidean norm of each position's components of z.
@@ -73,7 +100,8 @@ class Reconstruction:
         Examples
         --------
         >>> z = np.array([[3.0], [4.0], [0.0], [1.0], [0.0], [0.0]])
-        >>> r = Reconstruction(z, z, z, z, z, 0.0, 0.5, None, "dense")
+        >>> r = Reconstruction(z=z, x=z, z_filtered=z, x_filtered=z, weights=z,
+        ...                    log_likelihood=0.0, exponent=0.5, smoother=None, method="dense")
         >>> r.amplitude(3).ravel().tolist()
         [5.0, 1.0]
         """
