@@ -64,7 +64,7 @@ from scipy import linalg
 from ._standardize import standardization_weights, standardize
 from .result import Reconstruction
 
-__all__ = ["run", "qualification_problem"]
+__all__ = ["SpectralModel", "run", "qualification_problem"]
 
 _LOG_2PI = np.log(2 * np.pi)
 # Temporaries of at most this size when forming (T, n) outputs: small enough for the
@@ -104,13 +104,12 @@ def _isotropic(value):
     return float(c) if np.array_equal(value, c * np.eye(len(value))) else None
 
 
-def _whiten(L, Y, R):
-    """``C^{-1} L``, ``C^{-1} Y`` and ``log|det C|`` with ``R = C C^T``."""
+def _whitener(R):
+    """``M -> C^{-1} M`` and ``log|det C|`` with ``R = C C^T`` (Cholesky)."""
     C = linalg.cholesky(R, lower=True)
     if np.array_equal(C, C[0, 0] * np.eye(len(C))):
-        return L / C[0, 0], Y / C[0, 0], len(C) * np.log(C[0, 0])
-    solve = functools.partial(linalg.solve_triangular, C, lower=True)
-    return solve(L), solve(Y), np.sum(np.log(np.diag(C)))
+        return (lambda M: M / C[0, 0]), len(C) * np.log(C[0, 0])
+    return functools.partial(linalg.solve_triangular, C, lower=True), np.sum(np.log(np.diag(C)))
 
 
 def _basis(Lw):
@@ -121,33 +120,40 @@ def _basis(Lw):
     return Ut[:rank].T, s[:rank], V[:, :rank]
 
 
-def _forward(s, eta, rho_sq, a, q, theta0, n_channels):
-    """The filter in singular coordinates: O(r) per step. Arrays are time-major."""
-    T, r = eta.shape
-    p_pred, p_filt, xi = np.empty((T, r)), np.empty((T, r)), np.empty((T, r))
-    c_pred = np.empty(T)
-    p, c, x, log_likelihood = np.full(r, theta0), theta0, np.zeros(r), 0.0
-    for t in range(T):
+def _covariances(s, a, q, theta0, n_times):
+    """``p_{t|t-1}``, ``p_{t|t}`` (T, r) and ``c_{t|t-1}`` (T,): they do not depend on data."""
+    p_pred, p_filt, c_pred = (
+        np.empty((n_times, len(s))),
+        np.empty((n_times, len(s))),
+        np.empty(n_times),
+    )
+    p, c = np.full(len(s), theta0), theta0
+    for t in range(n_times):
+        # P_{t|t-1} = a^2 P_{t-1|t-1} + q I                                 (4)
         p_pred[t], c_pred[t] = a**2 * p + q, a**2 * c + q
-        x_pred = a * x
+        # P_{t|t} = P_{t|t-1} - K S K^T: on span V p / (s^2 p + 1), none on the rest  (5)
+        p = p_filt[t] = p_pred[t] / (s**2 * p_pred[t] + 1)
+        c = c_pred[t]
+    return p_pred, p_filt, c_pred
+
+
+def _means(s, eta, p_pred, a):
+    """``xi_t = V^T x_{t|t}`` (T, r) and the whitened innovations' log-likelihood terms."""
+    xi, x = np.empty_like(eta), np.zeros(eta.shape[1])
+    quadratic = 0.0
+    for t in range(len(eta)):
         denom = s**2 * p_pred[t] + 1  # eigenvalues of S~ on span U
-        innovation = eta[t] - s * x_pred
-        x = xi[t] = x_pred + p_pred[t] * s / denom * innovation
-        p = p_filt[t] = p_pred[t] / denom
-        c = c_pred[t]  # no update on the complement of span V
-        log_likelihood -= 0.5 * (
-            n_channels * _LOG_2PI
-            + np.sum(np.log(denom))
-            + np.sum(innovation**2 / denom)
-            + rho_sq[t]
-        )
-    return dict(p_pred=p_pred, p_filt=p_filt, c_pred=c_pred, xi=xi, log_likelihood=log_likelihood)
+        innovation = eta[t] - s * a * x  # U^T (y~_t - L~ x_{t|t-1})
+        # x_{t|t} = x_{t|t-1} + K~ e~_t with K~ = V diag(p s / (s^2 p + 1)) U^T    (5)
+        x = xi[t] = a * x + p_pred[t] * s / denom * innovation
+        quadratic += np.sum(innovation**2 / denom)
+    return xi, quadratic
 
 
-def _rts_gains(f, a):
+def _rts_gains(p_pred, p_filt, c_pred, a):
     """gamma_t (T-1, r) on span V and the scalar beta_t (T-1,) on its complement."""
-    gamma = a * f["p_filt"][:-1] / f["p_pred"][1:]
-    beta = a * f["c_pred"][:-1] / f["c_pred"][1:]  # c_{t|t} = c_{t|t-1}
+    gamma = a * p_filt[:-1] / p_pred[1:]
+    beta = a * c_pred[:-1] / c_pred[1:]  # c_{t|t} = c_{t|t-1}
     return gamma, beta
 
 
@@ -169,6 +175,115 @@ def _by_columns(n, T, block):
     return out
 
 
+class SpectralModel:
+    """The data-independent part of the spectral path, prepared once, applied many times.
+
+    Whitening, the SVD and the whole covariance recursion depend on the model and the number
+    of steps only, so runs that share them (several seeds of a simulation, several
+    exponents and smoothers) pay for them once.
+
+    Parameters
+    ----------
+    L : ndarray, shape (n_channels, n_sources)
+    R : ndarray, shape (n_channels, n_channels)
+        SPD noise covariance.
+    transition, q, theta0 : float or ndarray, shape (n_sources, n_sources)
+        Scalars or scalar multiples of the identity (see :func:`qualification_problem`).
+    n_times : int
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> L = rng.standard_normal((6, 9))
+    >>> model = SpectralModel(L, np.eye(6), 1.0, 0.1, 1.0, n_times=5)
+    >>> a = model.apply(rng.standard_normal((6, 5)), exponent=0.5, smoother=None)
+    >>> b = model.apply(rng.standard_normal((6, 5)), exponent=1.25, smoother="rts-state")
+    >>> a.z.shape, b.z.shape, model.rank
+    ((9, 5), (9, 5), 6)
+    """
+
+    def __init__(self, L, R, transition, q, theta0, n_times):
+        a, q, theta0 = (_isotropic(v) for v in (transition, q, theta0))
+        self.a, self.n_channels, self.n_sources, self.n_times = a, *L.shape, n_times
+        self._whiten, self._log_det_C = _whitener(R)
+        self.U, self.s, self.V = _basis(self._whiten(L))
+        self.p_pred, self.p_filt, self.c_pred = _covariances(self.s, a, q, theta0, n_times)
+        # w = (V o V) omega, omega = s^2 p / (s^2 p + 1)                    (7)
+        self.omega = self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)
+        self._log_det_S = np.sum(np.log(self.s**2 * self.p_pred + 1))
+
+    @property
+    def rank(self):
+        """int : Numerical rank of the whitened lead field."""
+        return len(self.s)
+
+    def _raw_weights(self, columns):
+        return self.omega @ (self.V[columns] ** 2).T
+
+    def _standardized(self, xi, exponent):
+        # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t                    (6)-(7)
+        u = xi / np.sqrt(self.p_pred)
+        return _by_columns(
+            self.n_sources,
+            self.n_times,
+            lambda c: standardize(self._raw_weights(c), u @ self.V[c].T, exponent)[1],
+        )
+
+    def _expand(self, xi):
+        return _by_columns(self.n_sources, self.n_times, lambda c: xi @ self.V[c].T)
+
+    def apply(self, Y, exponent, smoother):
+        """Filter and smooth data ``Y``; equal to :func:`skf_ref.dense.run` on the model.
+
+        Parameters
+        ----------
+        Y : ndarray, shape (n_channels, n_times)
+        exponent : float
+        smoother : {None, "rts-standardized", "rts-state"}
+
+        Returns
+        -------
+        Reconstruction
+            Its arrays are computed on first access.
+        """
+        m, T, a = self.n_channels, self.n_times, self.a
+        if Y.shape != (m, T):
+            raise ValueError(f"Y must have shape ({m}, {T}), got {Y.shape}")
+        Yw = self._whiten(Y)
+        eta = Yw.T @ self.U  # (T, r)
+        rho_sq = np.sum((Yw - self.U @ eta.T) ** 2)  # data outside span U
+        xi, quadratic = _means(self.s, eta, self.p_pred, a)
+        log_likelihood = -0.5 * (T * m * _LOG_2PI + self._log_det_S + quadratic + rho_sq)
+        z_filtered = functools.cache(lambda: self._standardized(xi, exponent))
+        x_filtered = functools.cache(lambda: self._expand(xi))
+        x, z = x_filtered, z_filtered
+        gamma, beta = _rts_gains(self.p_pred, self.p_filt, self.c_pred, a)
+        if smoother == "rts-state":
+            xi_s = _backward(xi, gamma, a)
+            x = functools.cache(lambda: self._expand(xi_s))
+            z = functools.cache(lambda: self._standardized(xi_s, exponent))
+        elif smoother == "rts-standardized":
+            z = functools.cache(lambda: _smooth_standardized(z_filtered(), self.V, gamma, beta, a))
+        return Reconstruction(
+            z=lambda: z().T,
+            x=lambda: x().T,
+            z_filtered=lambda: z_filtered().T,
+            x_filtered=lambda: x_filtered().T,
+            weights=lambda: self._weights(exponent).T,
+            log_likelihood=float(log_likelihood - T * self._log_det_C),
+            exponent=exponent,
+            smoother=smoother,
+            method="spectral",
+        )
+
+    def _weights(self, exponent):
+        return _by_columns(
+            self.n_sources,
+            self.n_times,
+            lambda c: standardization_weights(self._raw_weights(c), exponent),
+        )
+
+
 def run(L, Y, R, transition, q, theta0, exponent, smoother):
     """Filter and optionally smooth in the singular basis; equal to :func:`skf_ref.dense.run`.
 
@@ -187,47 +302,7 @@ def run(L, Y, R, transition, q, theta0, exponent, smoother):
     Reconstruction
         Its arrays are computed on first access.
     """
-    a, q, theta0 = (_isotropic(v) for v in (transition, q, theta0))
-    (m, n), T = L.shape, Y.shape[1]
-    Lw, Yw, log_det_C = _whiten(L, Y, R)
-    U, s, V = _basis(Lw)
-    eta = Yw.T @ U  # (T, r)
-    rho_sq = np.sum((Yw - U @ eta.T) ** 2, axis=0)  # data outside span U
-    f = _forward(s, eta, rho_sq, a, q, theta0, m)
-    omega = s**2 * f["p_pred"] / (s**2 * f["p_pred"] + 1)  # w = (V o V) omega
-    inv_sqrt_p = 1 / np.sqrt(f["p_pred"])
-
-    def raw_weights(cols):
-        return omega @ (V[cols] ** 2).T
-
-    def standardized(xi):
-        # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t                    (6)-(7)
-        u = xi * inv_sqrt_p
-        return _by_columns(n, T, lambda c: standardize(raw_weights(c), u @ V[c].T, exponent)[1])
-
-    z_filtered = functools.cache(lambda: standardized(f["xi"]))
-    x_filtered = functools.cache(lambda: _by_columns(n, T, lambda c: f["xi"] @ V[c].T))
-    x, z = x_filtered, z_filtered
-    if smoother == "rts-state":
-        gamma, _ = _rts_gains(f, a)
-        xi_s = _backward(f["xi"], gamma, a)
-        x = functools.cache(lambda: _by_columns(n, T, lambda c: xi_s @ V[c].T))
-        z = functools.cache(lambda: standardized(xi_s))
-    elif smoother == "rts-standardized":
-        z = functools.cache(lambda: _smooth_standardized(z_filtered(), V, *_rts_gains(f, a), a))
-    return Reconstruction(
-        z=lambda: z().T,
-        x=lambda: x().T,
-        z_filtered=lambda: z_filtered().T,
-        x_filtered=lambda: x_filtered().T,
-        weights=lambda: (
-            _by_columns(n, T, lambda c: standardization_weights(raw_weights(c), exponent)).T
-        ),
-        log_likelihood=float(f["log_likelihood"] - T * log_det_C),
-        exponent=exponent,
-        smoother=smoother,
-        method="spectral",
-    )
+    return SpectralModel(L, R, transition, q, theta0, Y.shape[1]).apply(Y, exponent, smoother)
 
 
 def _smooth_standardized(zf, V, gamma, beta, a):

@@ -1,0 +1,277 @@
+"""Benchmark: wall time and peak memory of every SKF path and of MNE's sLORETA.
+
+``python -m validation.bench [--out DIR] [--repeats N] [--size N_COLUMNS,N_CHANNELS,N_TIMES]``
+
+Each row runs one path on one size: the SKF with ``"rts-standardized"`` smoothing
+(``skf_ref.reconstruct`` with ``method`` = filterpy, dense or spectral, asking for ``z``) or
+MNE-Python's sLORETA (``mne.minimum_norm.apply_inverse`` on a prepared inverse operator),
+on the same sphere-model forward (``skf_ref.simulate.make_head_model``) and the same data
+(a dipole at one grid position with a 10 Hz-like oscillation plus white noise, seeded).
+
+Time is the median wall time of up to ``--repeats`` runs (fewer when one run is slow; the
+count is in the table). Peak memory is the peak of memory traced by ``tracemalloc`` (numpy
+arrays and Python objects) during one extra run, above what was allocated before it: the
+memory the call itself needs. Paths the memory guard refuses are reported as not runnable,
+with the memory they would need. Results go to ``DIR/results.md`` and ``DIR/results.csv``.
+"""
+
+import argparse
+import os
+import platform
+import statistics
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+SIZES = ((600, 64, 41), (1500, 64, 41), (9000, 64, 41), (9000, 64, 1000), (150000, 128, 1000))
+PATHS = ("filterpy", "dense", "spectral", "mne-sloreta")
+MONTAGES = {32: "biosemi32", 64: "biosemi64", 128: "biosemi128", 256: "biosemi256"}
+SLOW_SECONDS = 60.0  # stop repeating a path once its runs have taken this long in total
+
+
+def make_problem(n_columns, n_channels, n_times, seed=0):
+    """Head model, data and SNR priors for one benchmark size.
+
+    Parameters
+    ----------
+    n_columns : int
+        Lead-field columns, three per position (free orientation).
+    n_channels : int
+        One of the BioSemi montage sizes (32, 64, 128, 256).
+    n_times : int
+    seed : int
+
+    Returns
+    -------
+    dict
+        ``head`` (:class:`skf_ref.simulate.HeadModel`), ``Y`` (n_channels, n_times),
+        ``noise_std``, ``theta0``, ``q``.
+    """
+    from skf_ref import priors_from_snr
+    from skf_ref.simulate import make_head_model
+
+    if n_channels not in MONTAGES:
+        raise ValueError(f"n_channels must be one of {sorted(MONTAGES)}, got {n_channels}")
+    head = make_head_model(n_positions=n_columns // 3, montage=MONTAGES[n_channels])
+    rng = np.random.default_rng(seed)
+    L = head.leadfield
+    column = int(rng.integers(L.shape[1]))
+    waveform = 10e-9 * np.sin(2 * np.pi * np.arange(n_times) / 40)
+    clean = np.outer(L[:, column], waveform)
+    noise_std = 0.1 * np.max(np.abs(clean))
+    Y = clean + noise_std * rng.standard_normal(clean.shape)
+    theta0, q = priors_from_snr(L, noise_std, pm_snr_db=0, ep_snr_db=20, n_steps=n_times)
+    return dict(head=head, Y=Y, noise_std=noise_std, theta0=theta0, q=q)
+
+
+def _skf_runner(problem, method):
+    from skf_ref import reconstruct
+
+    L = problem["head"].leadfield
+
+    def run():
+        rec = reconstruct(
+            L,
+            problem["Y"],
+            noise_std=problem["noise_std"],
+            theta0=problem["theta0"],
+            q=problem["q"],
+            exponent=1.25,
+            smoother="rts-standardized",
+            method=method,
+        )
+        return rec.z  # the spectral path computes outputs on access
+
+    return run
+
+
+def _mne_runner(problem):
+    import mne
+    from mne.minimum_norm import apply_inverse, make_inverse_operator
+
+    head, Y = problem["head"], problem["Y"]
+    info = head.info.copy()
+    evoked = mne.EvokedArray(Y, info, tmin=0.0, verbose=False)
+    evoked.set_eeg_reference("average", projection=True, verbose=False)
+    cov = mne.Covariance(
+        problem["noise_std"] ** 2 * np.eye(len(info.ch_names)),
+        info.ch_names,
+        bads=[],
+        projs=[],
+        nfree=1000,
+        verbose=False,
+    )
+    inverse = make_inverse_operator(
+        evoked.info, head.fwd, cov, loose=1.0, depth=None, verbose=False
+    )
+
+    def run():
+        return apply_inverse(evoked, inverse, lambda2=1 / 9, method="sLORETA", verbose=False)
+
+    return run
+
+
+def _runner(problem, path):
+    return _mne_runner(problem) if path == "mne-sloreta" else _skf_runner(problem, path)
+
+
+def _not_runnable(path, n_columns, n_times):
+    """The memory the path needs if the guard refuses it, else None."""
+    from skf_ref.reconstruct import available_memory, covariance_memory
+
+    if path not in ("filterpy", "dense"):
+        return None
+    needed = covariance_memory(n_columns, n_times)
+    return needed if needed > available_memory() / 2 else None
+
+
+def measure(run, repeats):
+    """Median wall time (s), runs done and peak traced memory (bytes) of ``run()``.
+
+    Parameters
+    ----------
+    run : callable
+        Called with no arguments.
+    repeats : int
+        At most this many timed runs (fewer once they took ``SLOW_SECONDS``).
+
+    Returns
+    -------
+    seconds : float
+    runs : int
+    peak_bytes : int
+    """
+    times = []
+    while len(times) < repeats and sum(times) < SLOW_SECONDS:
+        start = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - start)
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        tracemalloc.reset_peak()
+        run()
+        peak = tracemalloc.get_traced_memory()[1] - before
+    finally:
+        tracemalloc.stop()
+    return statistics.median(times), len(times), peak
+
+
+def benchmark(sizes=SIZES, paths=PATHS, repeats=3, progress=print):
+    """Run every path at every size.
+
+    Parameters
+    ----------
+    sizes : sequence of (n_columns, n_channels, n_times)
+    paths : sequence of str
+    repeats : int
+    progress : callable
+        Called with one line per finished row.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per size and path: ``seconds``, ``runs``, ``peak_mib`` (NaN when not
+        runnable), ``status`` and ``note``.
+    """
+    rows = []
+    for n_columns, n_channels, n_times in sizes:
+        problem = make_problem(n_columns, n_channels, n_times)
+        for path in paths:
+            row = dict(n_columns=n_columns, n_channels=n_channels, n_times=n_times, path=path)
+            needed = _not_runnable(path, n_columns, n_times)
+            if needed is not None:
+                row.update(seconds=np.nan, runs=0, peak_mib=np.nan, status="not runnable")
+                row["note"] = f"needs {needed / 2**30:.1f} GiB for its covariances"
+            else:
+                seconds, runs, peak = measure(_runner(problem, path), repeats)
+                row.update(seconds=seconds, runs=runs, peak_mib=peak / 2**20, status="ok")
+                row["note"] = ""
+            rows.append(row)
+            progress(_format_row(row))
+    return pd.DataFrame(rows)
+
+
+def _format_row(row):
+    if row["status"] != "ok":
+        return f"{row['n_columns']:>7} {row['n_times']:>5} {row['path']:<12} {row['note']}"
+    return (
+        f"{row['n_columns']:>7} {row['n_times']:>5} {row['path']:<12} "
+        f"{row['seconds']:10.4f} s  {row['peak_mib']:9.1f} MiB  ({row['runs']} runs)"
+    )
+
+
+def to_markdown(table):
+    """The results as a markdown table, with speed-ups of the spectral path.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        As returned by :func:`benchmark`.
+
+    Returns
+    -------
+    str
+    """
+    lines = [
+        "| n_columns | n_channels | n_times | path | time (s) | runs | peak memory (MiB) | note |",
+        "|---:|---:|---:|---|---:|---:|---:|---|",
+    ]
+    for _, row in table.iterrows():
+        ok = row["status"] == "ok"
+        seconds = f"{row['seconds']:.4g}" if ok else "not runnable"
+        peak = f"{row['peak_mib']:.1f}" if ok else "-"
+        lines.append(
+            f"| {row['n_columns']} | {row['n_channels']} | {row['n_times']} | {row['path']} "
+            f"| {seconds} | {row['runs']} | {peak} | {row['note']} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _machine():
+    return (
+        f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
+        f"numpy {np.__version__}"
+    )
+
+
+def main(argv=None):
+    """Command line entry point; returns the exit status."""
+    parser = argparse.ArgumentParser(prog="python -m validation.bench", description=__doc__)
+    parser.add_argument("--out", type=Path, default=Path("validation/bench"))
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument(
+        "--size",
+        action="append",
+        metavar="N_COLUMNS,N_CHANNELS,N_TIMES",
+        help="a size to run (repeatable); default: the five sizes of the issue",
+    )
+    parser.add_argument("--paths", default=",".join(PATHS))
+    args = parser.parse_args(argv)
+    try:
+        sizes = [tuple(int(v) for v in s.split(",")) for s in args.size] if args.size else SIZES
+        if any(len(s) != 3 for s in sizes) or args.repeats < 1:
+            raise ValueError
+    except ValueError:
+        print("bench: --size takes N_COLUMNS,N_CHANNELS,N_TIMES; --repeats >= 1", file=sys.stderr)
+        return 2
+    paths = args.paths.split(",")
+    unknown = set(paths) - set(PATHS)
+    if unknown:
+        print(f"bench: unknown --paths {sorted(unknown)}; choose from {PATHS}", file=sys.stderr)
+        return 2
+    table = benchmark(sizes, paths, args.repeats)
+    args.out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(args.out / "results.csv", index=False)
+    header = f"Machine: {_machine()}. Median wall time; peak traced memory of one run.\n\n"
+    (args.out / "results.md").write_text(header + to_markdown(table))
+    print(f"wrote {args.out / 'results.md'} and {args.out / 'results.csv'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
