@@ -22,6 +22,8 @@ def check_choice(name, value, allowed):
 
 def check_real(name, value, *, positive=False, nonnegative=False):
     """A finite real scalar (``bool`` excluded), optionally > 0 or >= 0."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
     value = float(value)
@@ -45,6 +47,8 @@ def check_int(name, value, *, minimum=1):
 
 def check_array(name, value, shape):
     """A finite float array of exactly ``shape`` (``None`` entries match any length)."""
+    if np.iscomplexobj(value):
+        raise TypeError(f"{name} must be real, got a complex array")
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as err:

@@ -33,13 +33,33 @@ def available_memory():
     return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
 
 
-def covariance_memory(n_sources, n_times):
-    """Bytes the filterpy and dense paths need: three stored (n, n) covariances a step."""
-    return 8 * n_sources**2 * (3 * n_times + 8)
+def covariance_memory(n_sources, n_times, method="dense", smoother=None):
+    """Bytes the covariance-storing paths need for their (n, n) matrices.
+
+    Parameters
+    ----------
+    n_sources, n_times : int
+    method : {"dense", "filterpy"}
+    smoother : {None, "rts-standardized", "rts-state"}
+
+    Returns
+    -------
+    int
+        ``8 n^2 (k T + 8)``: the dense path stores k = 3 matrices a step (``P_{t|t}``,
+        ``P_{t|t-1}`` and its inverse square root); the filterpy path stores 2, and filterpy's
+        ``rts_smoother`` copies two sequences and adds its gains (k = 5); 8 working matrices.
+
+    Examples
+    --------
+    >>> covariance_memory(1000, 41) / 2**30  # GiB
+    0.976...
+    """
+    per_step = 3 if method == "dense" else 2 if smoother is None else 5
+    return 8 * n_sources**2 * (per_step * n_times + 8)
 
 
-def _check_memory(method, n_sources, n_times, memory_limit):
-    needed = covariance_memory(n_sources, n_times)
+def _check_memory(method, smoother, n_sources, n_times, memory_limit):
+    needed = covariance_memory(n_sources, n_times, method, smoother)
     budget = available_memory() / 2 if memory_limit is None else memory_limit
     if needed > budget:
         raise MemoryError(
@@ -132,6 +152,10 @@ def reconstruct(
     q = check_scalar_or_spd("q", q, n, allow_zero=True)
     A = check_transition(transition, n)
     exponent = check_real("exponent", exponent, nonnegative=True)
+    if memory_limit is not None:
+        memory_limit = check_real("memory_limit", memory_limit, positive=True)
+    if np.ndim(q) == 0 and q == 0 and np.ndim(A) == 0 and A == 0:
+        raise ValueError("q must be > 0 when transition is 0: P_t|t-1 would be 0")
     check_choice("smoother", smoother, SMOOTHERS)
     check_choice("method", method, METHODS)
     problem = spectral.qualification_problem(A, q, theta0)
@@ -143,8 +167,14 @@ def reconstruct(
                 f"method='spectral' needs A = a I, Q = q I, P_0 = theta0 I: {problem}"
             )
         return spectral.run(L, Y, R, A, q, theta0, exponent, smoother)
-    _check_memory(method, n, Y.shape[1], memory_limit)
+    _check_memory(method, smoother, n, Y.shape[1], memory_limit)
     path = kalman.run if method == "filterpy" else dense.run
-    return path(
-        L, Y, R, _as_matrix(A, n), _as_matrix(q, n), _as_matrix(theta0, n), exponent, smoother
-    )
+    try:
+        return path(
+            L, Y, R, _as_matrix(A, n), _as_matrix(q, n), _as_matrix(theta0, n), exponent, smoother
+        )
+    except np.linalg.LinAlgError as err:
+        raise ValueError(
+            f"the predicted covariance P_t|t-1 = A P A^T + Q is singular ({err}): "
+            "give q > 0 or an invertible transition"
+        ) from err

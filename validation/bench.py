@@ -125,7 +125,7 @@ def _not_runnable(path, n_columns, n_times):
 
     if path not in ("filterpy", "dense"):
         return None
-    needed = covariance_memory(n_columns, n_times)
+    needed = covariance_memory(n_columns, n_times, path, "rts-standardized")
     return needed if needed > available_memory() / 2 else None
 
 

@@ -1,0 +1,1 @@
+"""Numerical validation of skf_ref: cross-checks of its computational paths."""
