@@ -8,11 +8,12 @@ import argparse
 import contextlib
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from ._io import atomic_path
 
 __all__ = ["main"]
 
@@ -24,36 +25,6 @@ class _UsageError(Exception):
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
         raise _UsageError(message)
-
-
-@contextlib.contextmanager
-def atomic_path(path):
-    """Yield a temporary path beside ``path``; rename it to ``path`` only on success.
-
-    Parameters
-    ----------
-    path : path-like
-        Final file name; its suffix is kept so writers can pick the format from it.
-
-    Examples
-    --------
-    >>> import pathlib, tempfile
-    >>> target = pathlib.Path(tempfile.mkdtemp()) / "a.txt"
-    >>> with atomic_path(target) as tmp:
-    ...     _ = tmp.write_text("whole")
-    >>> target.read_text()
-    'whole'
-    """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
 
 
 class _Progress:
@@ -163,11 +134,71 @@ def run_demo(args):
     return table
 
 
+def _sweep_parser(subparsers):
+    sweep = subparsers.add_parser(
+        "sweep",
+        help="a grid of P20/N20 runs, one tidy row each, resumable",
+        description="Run a grid over snr_db x ep_snr_db x pm_snr_db x exponent x smoother x "
+        "seed, appending one row per run (parameters, metrics, versions) to FILE (CSV, or "
+        "Parquet for a .parquet name). Rerunning with the same FILE skips finished rows. "
+        "Axes not given take the paper grid's values.",
+    )
+    sweep.add_argument("--out", type=Path, required=True, metavar="FILE", help="results file")
+    sweep.add_argument("--jobs", type=int, default=1, help="parallel workers (-1: all cores)")
+    sweep.add_argument("--grid", choices=("paper",), default="paper", help="the base grid")
+    sweep.add_argument("--snr-db", type=float, nargs="+", help="data SNRs (dB)")
+    sweep.add_argument("--ep-snr-db", type=float, nargs="+", help="EP-SNRs (dB)")
+    sweep.add_argument("--pm-snr-db", type=float, nargs="+", help="PM-SNRs (dB)")
+    sweep.add_argument("--exponent", type=float, nargs="+", help="standardization exponents")
+    sweep.add_argument(
+        "--smoother",
+        nargs="+",
+        choices=("none", "rts-standardized", "rts-state"),
+        help="smoothers ('none': filter only)",
+    )
+    sweep.add_argument("--seeds", type=int, default=10, help="noise seeds 0 .. SEEDS-1")
+    sweep.add_argument("--positions", type=int, default=3000, help="source positions (about)")
+    sweep.add_argument("--montage", default="biosemi64", help="MNE built-in montage")
+    sweep.add_argument("--quiet", action="store_true", help="no progress bar")
+    sweep.set_defaults(run=run_sweep_command)
+
+
+def run_sweep_command(args):
+    """Run ``skf-ref sweep``; returns the results table."""
+    from .sweep import paper_grid, run_sweep
+
+    grid = paper_grid(seeds=args.seeds)
+    for axis in ("snr_db", "ep_snr_db", "pm_snr_db", "exponent"):
+        if getattr(args, axis) is not None:
+            grid[axis] = getattr(args, axis)
+    if args.smoother is not None:
+        grid["smoother"] = [None if s == "none" else s for s in args.smoother]
+    try:
+        table = run_sweep(
+            grid,
+            args.out,
+            n_jobs=args.jobs,
+            n_positions=args.positions,
+            montage=args.montage,
+            progress=not args.quiet,
+        )
+    except KeyboardInterrupt:
+        print(
+            f"skf-ref: interrupted; finished rows are in {args.out}: rerun to resume",
+            file=sys.stderr,
+        )
+        raise SystemExit(130) from None
+    if not args.quiet:
+        print(f"{len(table)} rows in {args.out}", file=sys.stderr)
+    return table
+
+
 def build_parser():
     """The ``skf-ref`` argument parser."""
     parser = _Parser(prog="skf-ref", description="Standardized Kalman filter for EEG sources.")
     subparsers = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     _demo_parser(subparsers)
+    _sweep_parser(subparsers)
     return parser
 
 
