@@ -21,7 +21,7 @@ def standardization_weights(w, exponent):
     return w ** (-exponent)
 
 
-def standardize(w, whitened, exponent):
+def standardize(w, whitened, exponent, out=None):
     """Apply eqs. (7) and (6) to raw weights and whitened means.
 
     Parameters
@@ -32,6 +32,8 @@ def standardize(w, whitened, exponent):
         ``P_{t|t-1}^{-1/2} x``.
     exponent : float
         The standardization exponent alpha.
+    out : ndarray, optional
+        Where to write ``z``.
 
     Returns
     -------
@@ -49,7 +51,7 @@ def standardize(w, whitened, exponent):
     # W_t^(alpha) = Diag(w_t)^(-alpha)                                     (7)
     weights = standardization_weights(w, exponent)
     # z = W_t^(alpha) P^{-1/2} x                                            (6)
-    return weights, weights * whitened
+    return weights, np.multiply(weights, whitened, out=out)
 
 
 def inverse_sqrt(P):

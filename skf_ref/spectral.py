@@ -157,21 +157,23 @@ def _rts_gains(p_pred, p_filt, c_pred, a):
     return gamma, beta
 
 
-def _backward(z, gamma, a):
-    """``s_t = z_t + gamma_t (s_{t+1} - a z_t)``, ``s_T = z_T``; gamma per step, (T-1, ...)."""
+def _backward(z, gain, a):
+    """``s_t = z_t + G_t (s_{t+1} - a z_t)``, ``s_T = z_T``; gain per step, (T-1, ...)."""
     s = z.copy()
     for t in range(len(z) - 2, -1, -1):
-        s[t] = z[t] + gamma[t] * (s[t + 1] - a * z[t])
+        # the same, in place: s_t = (1 - a G_t) z_t + G_t s_{t+1}
+        s[t] *= 1 - a * gain[t]
+        s[t] += gain[t] * s[t + 1]
     return s
 
 
-def _by_columns(n, T, block):
-    """Fill a (T, n) array from ``block(columns) -> (T, len(columns))`` in bounded chunks."""
+def _by_columns(n, T, fill):
+    """A (T, n) array filled by ``fill(columns, view)`` in chunks of bounded size."""
     out = np.empty((T, n))
     step = max(1, _CHUNK_BYTES // (8 * T))
     for start in range(0, n, step):
         columns = slice(start, min(start + step, n))
-        out[:, columns] = block(columns)
+        fill(columns, out[:, columns])
     return out
 
 
@@ -207,6 +209,7 @@ class SpectralModel:
         self.a, self.n_channels, self.n_sources, self.n_times = a, *L.shape, n_times
         self._whiten, self._log_det_C = _whitener(R)
         self.U, self.s, self.V = _basis(self._whiten(L))
+        self._V_squared = self.V**2
         self.p_pred, self.p_filt, self.c_pred = _covariances(self.s, a, q, theta0, n_times)
         # w = (V o V) omega, omega = s^2 p / (s^2 p + 1)                    (7)
         self.omega = self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)
@@ -218,19 +221,25 @@ class SpectralModel:
         return len(self.s)
 
     def _raw_weights(self, columns):
-        return self.omega @ (self.V[columns] ** 2).T
+        return self.omega @ self._V_squared[columns].T
 
-    def _standardized(self, xi, exponent):
+    def _standardized(self, xi, exponent, project=False):
+        """z (T, n) from singular coordinates; with ``project``, also ``z V`` (T, r)."""
         # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t                    (6)-(7)
         u = xi / np.sqrt(self.p_pred)
-        return _by_columns(
-            self.n_sources,
-            self.n_times,
-            lambda c: standardize(self._raw_weights(c), u @ self.V[c].T, exponent)[1],
-        )
+        projection = np.zeros_like(u) if project else None
+
+        def fill(c, view):
+            standardize(self._raw_weights(c), u @ self.V[c].T, exponent, out=view)
+            if project:  # while the chunk is in cache
+                projection[:] += view @ self.V[c]
+
+        return _by_columns(self.n_sources, self.n_times, fill), projection
 
     def _expand(self, xi):
-        return _by_columns(self.n_sources, self.n_times, lambda c: xi @ self.V[c].T)
+        return _by_columns(
+            self.n_sources, self.n_times, lambda c, view: np.matmul(xi, self.V[c].T, out=view)
+        )
 
     def apply(self, Y, exponent, smoother):
         """Filter and smooth data ``Y``; equal to :func:`skf_ref.dense.run` on the model.
@@ -254,16 +263,18 @@ class SpectralModel:
         rho_sq = np.sum((Yw - self.U @ eta.T) ** 2)  # data outside span U
         xi, quadratic = _means(self.s, eta, self.p_pred, a)
         log_likelihood = -0.5 * (T * m * _LOG_2PI + self._log_det_S + quadratic + rho_sq)
-        z_filtered = functools.cache(lambda: self._standardized(xi, exponent))
+        project = smoother == "rts-standardized"
+        filtered = functools.cache(lambda: self._standardized(xi, exponent, project))
+        z_filtered = lambda: filtered()[0]  # noqa: E731
         x_filtered = functools.cache(lambda: self._expand(xi))
         x, z = x_filtered, z_filtered
         gamma, beta = _rts_gains(self.p_pred, self.p_filt, self.c_pred, a)
         if smoother == "rts-state":
             xi_s = _backward(xi, gamma, a)
             x = functools.cache(lambda: self._expand(xi_s))
-            z = functools.cache(lambda: self._standardized(xi_s, exponent))
+            z = functools.cache(lambda: self._standardized(xi_s, exponent)[0])
         elif smoother == "rts-standardized":
-            z = functools.cache(lambda: _smooth_standardized(z_filtered(), self.V, gamma, beta, a))
+            z = functools.cache(lambda: _smooth_standardized(*filtered(), self.V, gamma, beta, a))
         return Reconstruction(
             z=lambda: z().T,
             x=lambda: x().T,
@@ -280,7 +291,9 @@ class SpectralModel:
         return _by_columns(
             self.n_sources,
             self.n_times,
-            lambda c: standardization_weights(self._raw_weights(c), exponent),
+            lambda c, view: np.copyto(
+                view, standardization_weights(self._raw_weights(c), exponent)
+            ),
         )
 
 
@@ -305,11 +318,10 @@ def run(L, Y, R, transition, q, theta0, exponent, smoother):
     return SpectralModel(L, R, transition, q, theta0, Y.shape[1]).apply(Y, exponent, smoother)
 
 
-def _smooth_standardized(zf, V, gamma, beta, a):
-    """``s = h + V delta`` of the module docstring; zf is (T, n), returns (T, n)."""
+def _smooth_standardized(zf, zeta, V, gamma, beta, a):
+    """``s = h + V delta`` of the module docstring; zf is (T, n), ``zeta = zf V``."""
     beta_col = beta[:, None]
     h = _backward(zf, beta_col, a)  # scalar gains on whole vectors: O(n T)
-    zeta = zf @ V  # (T, r)
     chi = _backward(zeta, beta_col, a)  # = V^T h
     delta = np.zeros_like(zeta)
     for t in range(len(zf) - 2, -1, -1):
