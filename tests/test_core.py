@@ -15,9 +15,9 @@ from skf_ref import Reconstruction, StandardizedKalmanFilter, dense, priors_from
 from skf_ref.reconstruct import covariance_memory
 
 METHODS = ("filterpy", "dense", "spectral")
-# Paths that need A = a I, P_0 = theta0 I, Q = q I (reconstruct raises otherwise): the
-# general-model tests skip them. Paths that store covariances: the memory guard applies.
-ISOTROPIC_ONLY = ("spectral",)
+# Paths for general linear-Gaussian models (spectral needs A = a I, P_0 = theta0 I, Q = q I
+# and raises otherwise), and the paths that store covariances (the memory guard's).
+GENERAL_PATHS = ("filterpy", "dense")
 COVARIANCE_PATHS = ("filterpy", "dense")
 SMOOTHERS = ("rts-standardized", "rts-state")
 
@@ -260,8 +260,6 @@ class TestPaths:
     @pytest.fixture
     def general(self, method):
         """A tiny general linear-Gaussian model: full R, P_0, Q and a non-identity A."""
-        if method in ISOTROPIC_ONLY:
-            pytest.skip(f"method={method!r} handles isotropic random-walk models only")
         rng = np.random.default_rng(6)
         m, n, T = 4, 6, 5
         L = rng.standard_normal((m, n))
@@ -281,11 +279,13 @@ class TestPaths:
             g["L"], g["Y"], g["noise_cov"], g["transition"], g["q"], g["theta0"], exponent
         )
 
+    @pytest.mark.parametrize("method", GENERAL_PATHS)
     def test_log_likelihood(self, method, general):
         rec = reconstruct(**general, method=method)
         expected = np.sum(self.plain(general, 0.5)["log_pdf"])
         assert rec.log_likelihood == pytest.approx(expected, rel=PLAIN_LOOP_RTOL)
 
+    @pytest.mark.parametrize("method", GENERAL_PATHS)
     @pytest.mark.parametrize("exponent", [0.5, 1.25])
     def test_filter_matches_plain_loop(self, method, general, exponent):
         rec = reconstruct(**general, exponent=exponent, method=method)
@@ -293,6 +293,7 @@ class TestPaths:
         assert_relative(rec.x_filtered, f["x_filt"].T, PLAIN_LOOP_RTOL)
         assert_relative(rec.z_filtered, f["z"].T, PLAIN_LOOP_RTOL)
 
+    @pytest.mark.parametrize("method", GENERAL_PATHS)
     def test_rts_state_matches_textbook(self, method, general):
         rec = reconstruct(**general, exponent=1.25, smoother="rts-state", method=method)
         f = self.plain(general, 1.25)
@@ -305,6 +306,7 @@ class TestPaths:
         whitened = np.array([linalg.solve(s, x) for s, x in zip(f["sqrt"], xs, strict=True)])
         assert_relative(rec.z, rec.weights * whitened.T, PLAIN_LOOP_RTOL)
 
+    @pytest.mark.parametrize("method", GENERAL_PATHS)
     def test_rts_standardized_matches_recursion(self, method, general):
         rec = reconstruct(**general, exponent=1.25, smoother="rts-standardized", method=method)
         f = self.plain(general, 1.25)
@@ -349,6 +351,7 @@ class TestPaths:
         for name, value in problem.items():
             np.testing.assert_array_equal(value, copies[name], err_msg=name)
 
+    @pytest.mark.parametrize("method", GENERAL_PATHS)
     @pytest.mark.parametrize("smoother", [None, *SMOOTHERS])
     def test_matrix_inputs_not_mutated(self, method, general, smoother):
         copies = {k: v.copy() for k, v in general.items()}
@@ -356,19 +359,17 @@ class TestPaths:
         for name, value in general.items():
             np.testing.assert_array_equal(value, copies[name], err_msg=name)
 
+    @pytest.mark.parametrize("method", COVARIANCE_PATHS)
     def test_memory_guard(self, method, problem):
-        if method not in COVARIANCE_PATHS:
-            pytest.skip(f"method={method!r} stores no covariance")
         with pytest.raises(MemoryError, match=r"about [0-9.e+-]+ GiB.*method='spectral'"):
             reconstruct(**problem, method=method, memory_limit=1000)
         # enough memory: no error
         reconstruct(**problem, method=method, memory_limit=2**30)
 
+    @pytest.mark.parametrize("method", COVARIANCE_PATHS)
     @pytest.mark.parametrize("smoother", [None, *SMOOTHERS])
     def test_memory_guard_estimate_covers_the_run(self, method, smoother):
         # A run just inside memory_limit must not use much more than memory_limit.
-        if method not in COVARIANCE_PATHS:
-            pytest.skip(f"method={method!r} stores no covariance")
         rng = np.random.default_rng(12)
         L = lead_field(rng, 12, 100)
         Y = simulate(rng, L, 12, 1e-6, 1e-8)
