@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ._io import atomic_path
+from ._validation import check_real
 
 __all__ = ["main"]
 
@@ -38,9 +39,11 @@ class _Progress:
         start = time.perf_counter()
         if not self.quiet:
             print(f"{text} ...", end="", file=sys.stderr, flush=True)
-        yield
-        if not self.quiet:
-            print(f" {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
+        try:
+            yield
+        finally:
+            if not self.quiet:
+                print(f" {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
 
 
 def _demo_parser(subparsers):
@@ -76,6 +79,11 @@ def run_demo(args):
     from .priors import priors_from_snr
     from .reconstruct import reconstruct
 
+    # cheap checks first, so a typo fails at once and not after the head model is built
+    check_real("snr_db", args.snr_db)
+    check_real("pm_snr_db", args.pm_snr_db)
+    check_real("ep_snr_db", args.ep_snr_db)
+    check_real("exponent", args.exponent, nonnegative=True)
     progress = _Progress(args.quiet)
     args.out.mkdir(parents=True, exist_ok=True)
     with progress.stage(f"head model ({args.positions} positions, {args.montage})"):
@@ -122,7 +130,7 @@ def run_demo(args):
         setting = f"{args.snr_db:g} dB, EP {args.ep_snr_db:g}, PM {args.pm_snr_db:g}"
         for label, rec in runs.items():
             name = "filter only" if label == "filtered" else args.smoother
-            title = f"SKF {name}, exponent {args.exponent:g} ({setting})"
+            title = f"SKF {name}, exponent {args.exponent:g}\n{setting}"
             with atomic_path(args.out / f"time_courses_{label}.png") as tmp:
                 plots.plot_time_courses(rec, head, sim.truth, title=title, path=tmp)
             with atomic_path(args.out / f"average_reconstruction_{label}.png") as tmp:

@@ -7,6 +7,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -131,7 +132,7 @@ def _lines(path):
 
 def test_resume_after_the_process_is_killed(tmp_path):
     out = tmp_path / "results.csv"
-    env = os.environ | {"PYTHONPATH": os.getcwd()}
+    env = os.environ | {"PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     arguments = [str(out), json.dumps(KILL_GRID), str(POSITIONS)]
     process = subprocess.Popen([sys.executable, "-c", _KILLED_SWEEP, *arguments], env=env)
     deadline = time.monotonic() + 120
