@@ -1,7 +1,5 @@
 """The result type every computational path returns."""
 
-import numpy as np
-
 __all__ = ["Reconstruction"]
 
 
@@ -99,6 +97,7 @@ class Reconstruction:
 
         Examples
         --------
+        >>> import numpy as np
         >>> z = np.array([[3.0], [4.0], [0.0], [1.0], [0.0], [0.0]])
         >>> r = Reconstruction(z=z, x=z, z_filtered=z, x_filtered=z, weights=z,
         ...                    log_likelihood=0.0, exponent=0.5, smoother=None, method="dense")
@@ -110,5 +109,6 @@ class Reconstruction:
                 f"components must be 1, 2 or 3 and divide n_sources={self.n_sources}, "
                 f"got {components!r}"
             )
-        z = self.z_filtered if filtered else self.z
-        return np.linalg.norm(z.reshape(-1, components, self.n_times), axis=1)
+        from .metrics import amplitude_from_components
+
+        return amplitude_from_components(self.z_filtered if filtered else self.z, components)

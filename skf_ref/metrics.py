@@ -1,0 +1,496 @@
+"""Localization metrics for the P20/N20 scenario (shared/SKF_SPEC.md §6).
+
+``amplitude`` below is always a position amplitude ``a_t(p)``, shape (n_positions, n_times):
+the Euclidean norm of a position's three standardized components (see
+:func:`amplitude_from_components`). ``positions`` are grid positions, shape (n_positions, 3),
+and true positions shape (3,), both in metres; distances are reported in mm. The region of a
+source is the set of grid positions within ``radius_mm`` (15 mm) of its exact position; a
+region "is detected" at a time when its maximum is within ``dynamic_range_db`` (6 dB, with
+dB = 20 log10 of an amplitude ratio) of the global maximum at that time.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+__all__ = [
+    "DYNAMIC_RANGE_DB",
+    "REGION_RADIUS_MM",
+    "amplitude_from_components",
+    "as_amplitude",
+    "detected",
+    "echo",
+    "peak_localization_error",
+    "region_db",
+    "region_mask",
+    "region_time_course",
+    "separation",
+    "summarize",
+    "time_course_correlation",
+]
+
+#: Radius (mm) of a source's region.
+REGION_RADIUS_MM = 15.0
+#: Dynamic range (dB) within which a region counts as detected (the paper's figures).
+DYNAMIC_RANGE_DB = 6.0
+
+
+def _array(value, name, ndim, shape_text):
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a numeric array of shape {shape_text}") from None
+    if arr.ndim != ndim:
+        raise ValueError(f"{name} must have shape {shape_text}, got shape {arr.shape}")
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{name} must be finite")
+    return arr
+
+
+def _positions(positions):
+    pos = _array(positions, "positions", 2, "(n_positions, 3)")
+    if pos.shape[1] != 3 or pos.shape[0] == 0:
+        raise ValueError(f"positions must have shape (n_positions, 3), got shape {pos.shape}")
+    return pos
+
+
+def _point(value, name):
+    point = _array(value, name, 1, "(3,)")
+    if point.shape != (3,):
+        raise ValueError(f"{name} must have shape (3,), got shape {point.shape}")
+    return point
+
+
+def _amplitude(amplitude, positions):
+    amp = _array(amplitude, "amplitude", 2, "(n_positions, n_times)")
+    if amp.shape[0] != positions.shape[0] or amp.shape[1] == 0:
+        raise ValueError(
+            f"amplitude must have shape (n_positions, n_times) = ({positions.shape[0]}, "
+            f"n_times), got shape {amp.shape}"
+        )
+    if (amp < 0).any():
+        raise ValueError("amplitude must be non-negative (a norm per position)")
+    return amp
+
+
+def _index(index, name, n_times):
+    if isinstance(index, bool) or not isinstance(index, numbers.Integral):
+        raise ValueError(f"{name} must be an int, got {index!r}")
+    if not 0 <= index < n_times:
+        raise ValueError(f"{name} must be in [0, {n_times}), got {index}")
+    return int(index)
+
+
+def _region(positions, true_position, radius_mm, name="true_position"):
+    mask = region_mask(positions, true_position, radius_mm)
+    if not mask.any():
+        raise ValueError(
+            f"positions: no grid position within {radius_mm:g} mm of {name}; the grid is "
+            f"too coarse"
+        )
+    return mask
+
+
+def amplitude_from_components(z, n_components=3):
+    """Position amplitude: the norm of each position's consecutive components.
+
+    Parameters
+    ----------
+    z : ndarray, shape (n_components * n_positions, n_times)
+        Standardized source estimate, MNE column order (x, y, z of position 0, then 1, ...).
+    n_components : int
+        Components per position (3 for free orientation).
+
+    Returns
+    -------
+    amplitude : ndarray, shape (n_positions, n_times)
+
+    Examples
+    --------
+    >>> amplitude_from_components(np.array([[3.0], [4.0], [0.0], [0.0], [0.0], [1.0]]))
+    array([[5.],
+           [1.]])
+    """
+    z = _array(z, "z", 2, "(n_components * n_positions, n_times)")
+    if z.shape[0] % n_components:
+        raise ValueError(
+            f"z must have shape (n_components * n_positions, n_times) with n_components="
+            f"{n_components}, got shape {z.shape}"
+        )
+    return np.linalg.norm(z.reshape(-1, n_components, z.shape[1]), axis=1)
+
+
+def as_amplitude(reconstruction, n_positions):
+    """Position amplitude of a reconstruction object or an amplitude array.
+
+    Parameters
+    ----------
+    reconstruction : object with ``amplitude(n_components)``, or ndarray
+        E.g. ``skf_ref.Reconstruction`` (``reconstruction.amplitude(3)`` is used), or an
+        amplitude of shape (n_positions, n_times).
+    n_positions : int
+        Expected number of positions.
+
+    Returns
+    -------
+    amplitude : ndarray, shape (n_positions, n_times)
+
+    Examples
+    --------
+    >>> as_amplitude(np.ones((2, 5)), 2).shape
+    (2, 5)
+    """
+    if hasattr(reconstruction, "amplitude") and callable(reconstruction.amplitude):
+        reconstruction = reconstruction.amplitude(3)
+    amp = _array(reconstruction, "reconstruction amplitude", 2, "(n_positions, n_times)")
+    if amp.shape[0] != n_positions:
+        raise ValueError(
+            f"reconstruction amplitude must have shape (n_positions, n_times) with "
+            f"n_positions={n_positions}, got shape {amp.shape} (pass an amplitude, not the "
+            f"standardized components; see amplitude_from_components)"
+        )
+    return amp
+
+
+def region_mask(positions, true_position, radius_mm=REGION_RADIUS_MM):
+    """Grid positions within `radius_mm` of a true position.
+
+    Parameters
+    ----------
+    positions : ndarray, shape (n_positions, 3)
+        Grid positions in metres.
+    true_position : ndarray, shape (3,)
+        Exact source position in metres.
+    radius_mm : float
+        Region radius in mm.
+
+    Returns
+    -------
+    mask : ndarray of bool, shape (n_positions,)
+
+    Examples
+    --------
+    >>> region_mask(np.array([[0, 0, 0], [0.01, 0, 0], [0.02, 0, 0]]), np.zeros(3))
+    array([ True,  True, False])
+    """
+    positions = _positions(positions)
+    true_position = _point(true_position, "true_position")
+    if not (isinstance(radius_mm, numbers.Real) and radius_mm > 0):
+        raise ValueError(f"radius_mm must be a positive number, got {radius_mm!r}")
+    return np.linalg.norm(positions - true_position, axis=1) * 1e3 <= radius_mm
+
+
+def region_time_course(amplitude, positions, true_position, radius_mm=REGION_RADIUS_MM):
+    """Maximum amplitude over a source's region at each time.
+
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions, n_times)
+    positions : ndarray, shape (n_positions, 3)
+        Grid positions in metres.
+    true_position : ndarray, shape (3,)
+        Exact source position in metres.
+    radius_mm : float
+        Region radius in mm.
+
+    Returns
+    -------
+    course : ndarray, shape (n_times,)
+
+    Examples
+    --------
+    >>> region_time_course(np.array([[1.0, 2.0], [5.0, 0.0]]),
+    ...                    np.array([[0.0, 0, 0], [0.1, 0, 0]]), np.zeros(3))
+    array([1., 2.])
+    """
+    positions = _positions(positions)
+    amplitude = _amplitude(amplitude, positions)
+    return amplitude[_region(positions, true_position, radius_mm)].max(axis=0)
+
+
+def region_db(amplitude, positions, true_position, index, radius_mm=REGION_RADIUS_MM):
+    """A region's maximum at one time relative to the global maximum then, in dB.
+
+    Returns ``20 log10(max_region a / max_all a)`` at time `index` (0 dB: the region holds
+    the global maximum); ``-inf`` if the region's maximum is zero.
+
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions, n_times)
+    positions : ndarray, shape (n_positions, 3)
+        Grid positions in metres.
+    true_position : ndarray, shape (3,)
+        Exact source position in metres.
+    index : int
+        Time index.
+    radius_mm : float
+        Region radius in mm.
+
+    Returns
+    -------
+    db : float
+
+    Examples
+    --------
+    >>> region_db(np.array([[1.0], [2.0]]), np.array([[0.0, 0, 0], [0.1, 0, 0]]),
+    ...           np.zeros(3), 0)
+    -6.020599913279624
+    """
+    positions = _positions(positions)
+    amplitude = _amplitude(amplitude, positions)
+    index = _index(index, "index", amplitude.shape[1])
+    region = amplitude[_region(positions, true_position, radius_mm), index].max()
+    if region == 0:
+        return float("-inf")
+    return float(20.0 * np.log10(region / amplitude[:, index].max()))
+
+
+def peak_localization_error(amplitude, positions, true_position, peak_index):
+    """Distance (mm) from the true position to the amplitude's maximum at the peak time.
+
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions, n_times)
+    positions : ndarray, shape (n_positions, 3)
+        Grid positions in metres.
+    true_position : ndarray, shape (3,)
+        Exact source position in metres.
+    peak_index : int
+        Time index of the source's peak.
+
+    Returns
+    -------
+    error_mm : float
+
+    Examples
+    --------
+    >>> positions = np.array([[0.0, 0, 0], [0.02, 0, 0]])
+    >>> peak_localization_error(np.array([[1.0], [3.0]]), positions, np.zeros(3), 0)
+    20.0
+    """
+    positions = _positions(positions)
+    amplitude = _amplitude(amplitude, positions)
+    peak_index = _index(peak_index, "peak_index", amplitude.shape[1])
+    true_position = _point(true_position, "true_position")
+    best = positions[np.argmax(amplitude[:, peak_index])]
+    return float(np.linalg.norm(best - true_position) * 1e3)
+
+
+def detected(amplitude, positions, true_position, index, dynamic_range_db=DYNAMIC_RANGE_DB):
+    """Whether a source's region is within `dynamic_range_db` of the global max at `index`.
+
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions, n_times)
+    positions : ndarray, shape (n_positions, 3)
+        Grid positions in metres.
+    true_position : ndarray, shape (3,)
+        Exact source position in metres.
+    index : int
+        Time index.
+    dynamic_range_db : float
+        Dynamic range in dB (amplitude dB, 20 log10).
+
+    Returns
+    -------
+    detected : bool
+
+    Examples
+    --------
+    >>> positions = np.array([[0.0, 0, 0], [0.1, 0, 0]])
+    >>> detected(np.array([[0.6], [1.0]]), positions, np.zeros(3), 0)
+    True
+    >>> detected(np.array([[0.4], [1.0]]), positions, np.zeros(3), 0)
+    False
+    """
+    if not (isinstance(dynamic_range_db, numbers.Real) and dynamic_range_db > 0):
+        raise ValueError(f"dynamic_range_db must be a positive number, got {dynamic_range_db!r}")
+    return bool(region_db(amplitude, positions, true_position, index) >= -dynamic_range_db)
+
+
+def echo(amplitude, positions, deep_position, deep_peak_index, superficial_peak_index, true_ratio):
+    """Deep region's max at the superficial peak over its max at the deep peak, minus truth.
+
+    Zero for a reconstruction whose deep region follows the true deep waveform; positive when
+    deep activity lingers ("echo"). NaN if the deep region's maximum at its peak is zero.
+
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions, n_times)
+    positions : ndarray, shape (n_positions, 3)
+        Grid positions in metres.
+    deep_position : ndarray, shape (3,)
+        Exact deep source position in metres.
+    deep_peak_index, superficial_peak_index : int
+        Time indices of the two peaks.
+    true_ratio : float
+        ``|w_deep(superficial peak)| / |w_deep(deep peak)|`` (0.25 for the default pulses).
+
+    Returns
+    -------
+    echo : float
+
+    Examples
+    --------
+    >>> echo(np.array([[2.0, 1.0]]), np.zeros((1, 3)), np.zeros(3), 0, 1, 0.25)
+    0.25
+    """
+    course = region_time_course(amplitude, positions, deep_position)
+    deep_peak_index = _index(deep_peak_index, "deep_peak_index", course.size)
+    superficial_peak_index = _index(superficial_peak_index, "superficial_peak_index", course.size)
+    if course[deep_peak_index] == 0:
+        return float("nan")
+    return float(course[superficial_peak_index] / course[deep_peak_index] - true_ratio)
+
+
+def time_course_correlation(amplitude, positions, true_position, true_waveform):
+    """Pearson correlation of a region's max over time with the true waveform's magnitude.
+
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions, n_times)
+    positions : ndarray, shape (n_positions, 3)
+        Grid positions in metres.
+    true_position : ndarray, shape (3,)
+        Exact source position in metres.
+    true_waveform : ndarray, shape (n_times,)
+        The source's moment over time (any unit).
+
+    Returns
+    -------
+    r : float
+        NaN if either time course is constant.
+
+    Examples
+    --------
+    >>> amp = np.array([[0.0, 2.0, 4.0]])
+    >>> r = time_course_correlation(amp, np.zeros((1, 3)), np.zeros(3), [0.0, -1.0, -2.0])
+    >>> round(r, 12)
+    1.0
+    """
+    course = region_time_course(amplitude, positions, true_position)
+    wave = np.abs(_array(true_waveform, "true_waveform", 1, "(n_times,)"))
+    if wave.shape != course.shape:
+        raise ValueError(
+            f"true_waveform must have shape (n_times,) = ({course.size},), got {wave.shape}"
+        )
+    course, wave = course - course.mean(), wave - wave.mean()
+    norm = np.linalg.norm(course) * np.linalg.norm(wave)
+    return float(course @ wave / norm) if norm > 0 else float("nan")
+
+
+def separation(
+    amplitude,
+    positions,
+    deep_position,
+    superficial_position,
+    deep_peak_index,
+    superficial_peak_index,
+    dynamic_range_db=DYNAMIC_RANGE_DB,
+):
+    """Deep detected at its peak, superficial at its peak, deep not detected at the latter.
+
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions, n_times)
+    positions : ndarray, shape (n_positions, 3)
+        Grid positions in metres.
+    deep_position, superficial_position : ndarray, shape (3,)
+        Exact source positions in metres.
+    deep_peak_index, superficial_peak_index : int
+        Time indices of the two peaks.
+    dynamic_range_db : float
+        Dynamic range in dB.
+
+    Returns
+    -------
+    separated : bool
+
+    Examples
+    --------
+    >>> positions = np.array([[0.0, 0, 0], [0.1, 0, 0]])
+    >>> amp = np.array([[1.0, 0.2], [0.1, 1.0]])
+    >>> separation(amp, positions, positions[0], positions[1], 0, 1)
+    True
+    """
+    args = (amplitude, positions)
+    return (
+        detected(*args, deep_position, deep_peak_index, dynamic_range_db)
+        and detected(*args, superficial_position, superficial_peak_index, dynamic_range_db)
+        and not detected(*args, deep_position, superficial_peak_index, dynamic_range_db)
+    )
+
+
+def summarize(reconstruction, head, truth):
+    """All metrics for both sources of the P20/N20 scenario.
+
+    Parameters
+    ----------
+    reconstruction : object with ``amplitude(n_components)``, or ndarray
+        See :func:`as_amplitude`; amplitude shape (n_positions, n_times).
+    head : HeadModel
+        Anything with ``positions`` (ndarray, shape (n_positions, 3), metres).
+    truth : Truth
+        Anything with ``positions`` (2, 3) m, ``waveforms`` (2, n_times), ``peak_times``
+        (2,) s and ``times`` (n_times,) s; index 0 is the deep source, 1 the superficial.
+
+    Returns
+    -------
+    summary : dict
+        Plain floats and bools, in this order: ``deep_error_mm``, ``superficial_error_mm``
+        (peak localization errors), ``deep_detected``, ``superficial_detected``,
+        ``deep_region_db``, ``superficial_region_db`` (region max at own peak re. global
+        max, dB), ``echo``, ``deep_corr``, ``superficial_corr``, ``separation``,
+        ``deep_region_at_superficial_peak_db``.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> positions = np.array([[0.0, 0, 0], [0.1, 0, 0]])
+    >>> truth = SimpleNamespace(positions=positions, times=np.array([0.0, 1.0]),
+    ...     peak_times=np.array([0.0, 1.0]), waveforms=np.array([[1.0, 0.25], [0.0, 1.0]]))
+    >>> summary = summarize(np.array([[1.0, 0.25], [0.0, 1.0]]),
+    ...                     SimpleNamespace(positions=positions), truth)
+    >>> summary["deep_error_mm"], summary["echo"], summary["separation"]
+    (0.0, 0.0, True)
+    """
+    positions = _positions(head.positions)
+    times = _array(truth.times, "truth.times", 1, "(n_times,)")
+    true_positions = _array(truth.positions, "truth.positions", 2, "(2, 3)")
+    waveforms = _array(truth.waveforms, "truth.waveforms", 2, "(2, n_times)")
+    peak_times = _array(truth.peak_times, "truth.peak_times", 1, "(2,)")
+    if true_positions.shape != (2, 3) or waveforms.shape != (2, times.size):
+        raise ValueError(
+            f"truth must hold 2 sources: positions (2, 3) and waveforms (2, {times.size}), "
+            f"got {true_positions.shape} and {waveforms.shape}"
+        )
+    if peak_times.shape != (2,):
+        raise ValueError(f"truth.peak_times must have shape (2,), got {peak_times.shape}")
+    amplitude = _amplitude(as_amplitude(reconstruction, positions.shape[0]), positions)
+    if amplitude.shape[1] != times.size:
+        raise ValueError(
+            f"reconstruction amplitude must have shape (n_positions, n_times) = "
+            f"({positions.shape[0]}, {times.size}), got shape {amplitude.shape}"
+        )
+    (i_deep, i_sup) = (int(np.abs(times - t).argmin()) for t in peak_times)
+    (deep, sup), (w_deep, w_sup) = true_positions, waveforms
+    if w_deep[i_deep] == 0:
+        raise ValueError("truth.waveforms: the deep waveform is zero at its peak time")
+    args = (amplitude, positions)
+    deep_db = region_db(*args, deep, i_deep)
+    sup_db = region_db(*args, sup, i_sup)
+    return {
+        "deep_error_mm": peak_localization_error(*args, deep, i_deep),
+        "superficial_error_mm": peak_localization_error(*args, sup, i_sup),
+        "deep_detected": bool(deep_db >= -DYNAMIC_RANGE_DB),
+        "superficial_detected": bool(sup_db >= -DYNAMIC_RANGE_DB),
+        "deep_region_db": deep_db,
+        "superficial_region_db": sup_db,
+        "echo": echo(*args, deep, i_deep, i_sup, abs(w_deep[i_sup]) / abs(w_deep[i_deep])),
+        "deep_corr": time_course_correlation(*args, deep, w_deep),
+        "superficial_corr": time_course_correlation(*args, sup, w_sup),
+        "separation": separation(*args, deep, sup, i_deep, i_sup),
+        "deep_region_at_superficial_peak_db": region_db(*args, deep, i_sup),
+    }

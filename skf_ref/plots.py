@@ -1,0 +1,307 @@
+"""The paper's figure types: region time courses and maximum-intensity projections.
+
+The only module that imports matplotlib, and only inside functions. Figures are built with
+:class:`matplotlib.figure.Figure` directly, not ``pyplot``: nothing is registered with a GUI
+backend, sweeps need not close figures, notebooks display the returned figure, and
+``path=...`` (or ``fig.savefig``) writes a file. ``reconstruction`` arguments are anything
+:func:`skf_ref.metrics.as_amplitude` accepts: an object with ``amplitude(3)`` (e.g.
+``skf_ref.Reconstruction``) or an amplitude array of shape (n_positions, n_times). ``head``
+needs ``positions`` (n_positions, 3) in metres (and, for projections, ``spacing`` in metres,
+else it is inferred); ``truth`` needs ``positions`` (2, 3) m, ``waveforms`` (2, n_times) and
+``times`` (n_times,) s, source 0 deep, source 1 superficial.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .metrics import DYNAMIC_RANGE_DB, as_amplitude, region_time_course
+
+__all__ = [
+    "plot_average_reconstruction",
+    "plot_exponent_comparison",
+    "plot_prior_grid",
+    "plot_time_courses",
+]
+
+_COLOURS = ("tab:green", "tab:red")  # deep, superficial (the paper's colours)
+_LABELS = ("deep", "superficial")
+_DPI = 150
+
+
+def _figure(width, height):
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height), layout="constrained")
+
+
+def _finish(fig, path):
+    if path is not None:  # no software version in the file: the same figure, the same bytes
+        fig.savefig(path, dpi=_DPI, metadata={"Software": None})
+    return fig
+
+
+def _draw_time_courses(ax, reconstruction, head, truth):
+    """Region maxima (solid) and true waveform magnitudes (dashed), each pair normalized."""
+    positions = np.asarray(head.positions, dtype=float)
+    amplitude = as_amplitude(reconstruction, positions.shape[0])
+    times_ms = np.asarray(truth.times, dtype=float) * 1e3
+    if amplitude.shape[1] != times_ms.size:
+        raise ValueError(
+            f"reconstruction amplitude must have shape (n_positions, n_times) = "
+            f"({positions.shape[0]}, {times_ms.size}), got shape {amplitude.shape}"
+        )
+    courses = [region_time_course(amplitude, positions, pos) for pos in truth.positions]
+    waves = np.abs(np.asarray(truth.waveforms, dtype=float))
+    scale = max(course.max() for course in courses) or 1.0
+    wave_scale = waves.max() or 1.0
+    for course, wave, colour, label in zip(courses, waves, _COLOURS, _LABELS, strict=True):
+        ax.plot(times_ms, course / scale, color=colour, lw=1.8, label=f"{label} (region max)")
+        ax.plot(
+            times_ms, wave / wave_scale, color=colour, lw=1.2, ls="--", label=f"{label} (true)"
+        )
+    ax.set_xlim(times_ms[0], times_ms[-1])
+    ax.set_ylim(-0.03, 1.08)
+    ax.set_xlabel("time (ms)")
+    ax.set_ylabel("normalized amplitude")
+
+
+def plot_time_courses(reconstruction, head, truth, ax=None, title=None, path=None):
+    """Plot each source region's maximum amplitude over time against the true waveforms.
+
+    Solid: the maximum of the amplitude over the region (positions within 15 mm) of the
+    deep (green) and superficial (red) source; dashed: the true waveform magnitudes. The
+    two reconstructed curves share one scale (their joint maximum is 1), as do the true
+    ones, so the relative size of the deep and superficial activity stays visible.
+
+    Parameters
+    ----------
+    reconstruction : object with ``amplitude(n_components)``, or ndarray
+        Amplitude shape (n_positions, n_times).
+    head : HeadModel
+    truth : Truth
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw in; a new figure if None.
+    title : str, optional
+    path : str or path-like, optional
+        Where to save the figure (format from the extension).
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+    """
+    fig = _figure(5.0, 3.2) if ax is None else ax.figure
+    ax = fig.add_subplot() if ax is None else ax
+    _draw_time_courses(ax, reconstruction, head, truth)
+    ax.legend(fontsize="small", loc="upper right", framealpha=0.9)
+    if title is not None:
+        ax.set_title(title)
+    return _finish(fig, path)
+
+
+def _panel_grid(panels, head, truth, nrows, ncols, title, path):
+    """Time-course panels ``{(row, col): (reconstruction, title)}`` with one shared legend."""
+    fig = _figure(3.3 * ncols, 2.5 * nrows + 0.6)
+    axes = fig.subplots(nrows, ncols, sharex=True, sharey=True, squeeze=False)
+    for (row, col), (reconstruction, panel_title) in panels.items():
+        ax = axes[row, col]
+        _draw_time_courses(ax, reconstruction, head, truth)
+        ax.set_title(panel_title)
+        ax.label_outer()
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=4, fontsize="small")
+    if title is not None:
+        fig.suptitle(title)
+    return _finish(fig, path)
+
+
+def plot_prior_grid(reconstructions, head, truth, title=None, path=None):
+    """Time courses over a grid of prior parameters (the paper's 2 x 2 EP/PM figures).
+
+    Parameters
+    ----------
+    reconstructions : dict
+        ``{(ep_snr_db, pm_snr_db): reconstruction}``, a full grid, e.g. over {0, 20}^2.
+        Columns: EP-SNR ascending; rows: PM-SNR ascending. Panel titles "EP 0, PM 20".
+    head : HeadModel
+    truth : Truth
+    title : str, optional
+        Figure title (e.g. the noise level and smoothing).
+    path : str or path-like, optional
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+    """
+    if not isinstance(reconstructions, dict) or not reconstructions:
+        raise ValueError("reconstructions must be a non-empty dict {(ep, pm): reconstruction}")
+    if not all(isinstance(key, tuple) and len(key) == 2 for key in reconstructions):
+        raise ValueError(
+            f"reconstructions keys must be (ep, pm) pairs, got {list(reconstructions)}"
+        )
+    eps = sorted({ep for ep, _ in reconstructions})
+    pms = sorted({pm for _, pm in reconstructions})
+    missing = [(ep, pm) for pm in pms for ep in eps if (ep, pm) not in reconstructions]
+    if missing:
+        raise ValueError(f"reconstructions must fill the EP x PM grid; missing {missing}")
+    panels = {
+        (row, col): (reconstructions[ep, pm], f"EP {ep:g}, PM {pm:g}")
+        for row, pm in enumerate(pms)
+        for col, ep in enumerate(eps)
+    }
+    return _panel_grid(panels, head, truth, len(pms), len(eps), title, path)
+
+
+def plot_exponent_comparison(reconstructions, head, truth, title=None, path=None):
+    """Time courses side by side, one panel per standardization exponent.
+
+    Parameters
+    ----------
+    reconstructions : dict
+        ``{exponent: reconstruction}``; panels in ascending exponent order.
+    head : HeadModel
+    truth : Truth
+    title : str, optional
+    path : str or path-like, optional
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+    """
+    if not isinstance(reconstructions, dict) or not reconstructions:
+        raise ValueError("reconstructions must be a non-empty dict {exponent: reconstruction}")
+    panels = {
+        (0, col): (reconstructions[alpha], f"exponent {alpha:g}")
+        for col, alpha in enumerate(sorted(reconstructions))
+    }
+    return _panel_grid(panels, head, truth, 1, len(panels), title, path)
+
+
+def _lattice(head):
+    """Integer grid indices (n_positions, 3) of the positions and the spacing (m)."""
+    positions = np.asarray(head.positions, dtype=float)
+    spacing = getattr(head, "spacing", None)
+    if spacing is None or not np.isfinite(spacing):
+        steps = np.concatenate([np.diff(np.unique(np.round(col, 9))) for col in positions.T])
+        spacing = steps.min() if steps.size else 1.0
+    cells = (positions - positions.min(axis=0)) / spacing
+    index = np.rint(cells).astype(int)
+    if np.abs(cells - index).max() > 1e-3:
+        raise ValueError("head.positions must lie on a regular cubic grid to be projected")
+    return index, spacing
+
+
+# projections: (name, axis projected away, horizontal axis, vertical axis)
+_VIEWS = (("sagittal", 0, 1, 2), ("coronal", 1, 0, 2), ("axial", 2, 0, 1))
+_AXIS_NAMES = "xyz"
+
+
+def plot_average_reconstruction(
+    reconstruction,
+    head,
+    truth,
+    times_ms=(1.5, 2.5),
+    dynamic_range_db=DYNAMIC_RANGE_DB,
+    title=None,
+    path=None,
+):
+    """Maximum-intensity projections of the amplitude at given times, in dB re. the max.
+
+    One row per time, columns sagittal (y-z), coronal (x-z) and axial (x-y) maximum-
+    intensity projections in head coordinates (mm). Colours span ``max - dynamic_range_db``
+    to the maximum at that time; grid positions below the range are light grey, outside
+    the grid white. True positions: deep green, superficial red circles. Pass an averaged
+    amplitude (e.g. over noise realizations) to plot an average reconstruction.
+
+    Parameters
+    ----------
+    reconstruction : object with ``amplitude(n_components)``, or ndarray
+        Amplitude shape (n_positions, n_times).
+    head : HeadModel
+        Its positions must form a regular cubic grid.
+    truth : Truth
+    times_ms : sequence of float
+        Times to show, in ms; each uses the nearest sample.
+    dynamic_range_db : float
+        Colour range in dB below each time's maximum.
+    title : str, optional
+    path : str or path-like, optional
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+    """
+    import matplotlib as mpl
+
+    positions = np.asarray(head.positions, dtype=float)
+    amplitude = as_amplitude(reconstruction, positions.shape[0])
+    times = np.asarray(truth.times, dtype=float)
+    if amplitude.shape[1] != times.size:
+        raise ValueError(
+            f"reconstruction amplitude must have shape (n_positions, n_times) = "
+            f"({positions.shape[0]}, {times.size}), got shape {amplitude.shape}"
+        )
+    times_ms = np.atleast_1d(np.asarray(times_ms, dtype=float))
+    half_step = 0.5 * (times[-1] - times[0]) / max(times.size - 1, 1) * 1e3
+    if (
+        times_ms.ndim != 1
+        or not times_ms.size
+        or (np.abs(times_ms[:, None] - times[None, :] * 1e3).min(axis=1) > half_step + 1e-9).any()
+    ):
+        raise ValueError(
+            f"times_ms must be times within {times[0] * 1e3:g}..{times[-1] * 1e3:g} ms, "
+            f"got {times_ms.tolist()}"
+        )
+    if not dynamic_range_db > 0:
+        raise ValueError(f"dynamic_range_db must be positive, got {dynamic_range_db!r}")
+    index, spacing = _lattice(head)
+    corner_mm = positions.min(axis=0) * 1e3
+    cmap = mpl.colormaps["Blues"].resampled(256)
+    cmap = mpl.colors.ListedColormap(cmap(np.linspace(0.3, 1.0, 256)))
+    cmap = cmap.with_extremes(under="0.85", bad="white")
+    fig = _figure(9.0, 2.9 * times_ms.size + 0.5)
+    axes = fig.subplots(times_ms.size, 3, squeeze=False)
+    for row, t_ms in enumerate(times_ms):
+        k = int(np.abs(times * 1e3 - t_ms).argmin())
+        a = amplitude[:, k]
+        with np.errstate(divide="ignore"):
+            db = 20.0 * np.log10(a / a.max()) if a.max() > 0 else np.full(a.shape, -np.inf)
+        volume = np.full(index.max(axis=0) + 1, -np.inf)
+        volume[tuple(index.T)] = db
+        occupied = np.zeros(volume.shape, dtype=bool)
+        occupied[tuple(index.T)] = True
+        for col, (name, away, horiz, vert) in enumerate(_VIEWS):
+            ax = axes[row, col]
+            # mip axes: (horizontal, vertical), as horiz < vert in every view
+            mip = np.where(occupied.any(axis=away), volume.max(axis=away), np.nan)
+            lo = corner_mm - 0.5 * spacing * 1e3
+            hi = corner_mm + (np.array(volume.shape) - 0.5) * spacing * 1e3
+            image = ax.imshow(
+                mip.T,
+                origin="lower",
+                extent=(lo[horiz], hi[horiz], lo[vert], hi[vert]),
+                cmap=cmap,
+                vmin=-dynamic_range_db,
+                vmax=0.0,
+                interpolation="nearest",
+            )
+            for pos, colour, label in zip(truth.positions, _COLOURS, _LABELS, strict=True):
+                ax.plot(
+                    pos[horiz] * 1e3,
+                    pos[vert] * 1e3,
+                    "o",
+                    ms=9,
+                    mfc="none",
+                    mec=colour,
+                    mew=2.0,
+                    label=f"{label} (true)",
+                )
+            ax.set_title(f"{name}, {times[k] * 1e3:g} ms")
+            ax.set_xlabel(f"{_AXIS_NAMES[horiz]} (mm)")
+            ax.set_ylabel(f"{_AXIS_NAMES[vert]} (mm)")
+    fig.colorbar(image, ax=axes, label="dB re. max", extend="min", shrink=0.8)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize="small")
+    if title is not None:
+        fig.suptitle(title)
+    return _finish(fig, path)

@@ -1,0 +1,106 @@
+"""The paper's figure types are drawn and written (Agg backend), with their bad input refused."""
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from skf_ref import plots, priors_from_snr, reconstruct  # noqa: E402
+from skf_ref.simulate import make_head_model, p20n20_scenario, simulate  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def study():
+    head = make_head_model(500)
+    sim = simulate(head, p20n20_scenario(), 30.0, seed=0)
+
+    def run(ep=20.0, pm=0.0, exponent=1.25, smoother="rts-standardized"):
+        theta0, q = priors_from_snr(head.leadfield, sim.sigma, pm, ep, sim.Y.shape[1])
+        return reconstruct(
+            head.leadfield,
+            sim.Y,
+            noise_std=sim.sigma,
+            theta0=theta0,
+            q=q,
+            exponent=exponent,
+            smoother=smoother,
+        )
+
+    return head, sim.truth, run
+
+
+def is_png(path):
+    return path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_time_courses(study, tmp_path):
+    head, truth, run = study
+    fig = plots.plot_time_courses(run(), head, truth, title="t", path=tmp_path / "t.png")
+    (ax,) = fig.axes
+    assert ax.get_xlabel() == "time (ms)" and "normalized" in ax.get_ylabel()
+    colours = {line.get_color() for line in ax.get_lines()}
+    assert colours == {"tab:green", "tab:red"}  # deep green, superficial red
+    assert sum(line.get_linestyle() == "--" for line in ax.get_lines()) == 2  # the truth
+    assert is_png(tmp_path / "t.png")
+
+
+def test_prior_grid(study, tmp_path):
+    head, truth, run = study
+    panels = {(ep, pm): run(ep, pm) for ep in (0.0, 20.0) for pm in (0.0, 20.0)}
+    fig = plots.plot_prior_grid(panels, head, truth, path=tmp_path / "g.png")
+    titles = sorted(ax.get_title() for ax in fig.axes)
+    assert titles == ["EP 0, PM 0", "EP 0, PM 20", "EP 20, PM 0", "EP 20, PM 20"]
+    assert is_png(tmp_path / "g.png")
+
+
+def test_exponent_comparison(study, tmp_path):
+    head, truth, run = study
+    panels = {e: run(exponent=e) for e in (1.0, 1.25, 1.5)}
+    fig = plots.plot_exponent_comparison(panels, head, truth, path=tmp_path / "e.png")
+    assert len(fig.axes) == 3 and is_png(tmp_path / "e.png")
+
+
+def test_average_reconstruction_maps(study, tmp_path):
+    head, truth, run = study
+    rec = run()
+    fig = plots.plot_average_reconstruction(rec, head, truth, path=tmp_path / "m.png")
+    images = [ax for ax in fig.axes if ax.get_images()]
+    assert len(images) == 6  # three projections at 1.5 and at 2.5 ms
+    assert {ax.get_images()[0].get_clim() for ax in images} == {(-6.0, 0.0)}  # 6 dB range
+    assert any("dB" in ax.get_ylabel() for ax in fig.axes)  # the colour bar
+    assert is_png(tmp_path / "m.png")
+    # an amplitude averaged over runs is accepted as well
+    average = np.mean([rec.amplitude(3), run(exponent=1.0).amplitude(3)], axis=0)
+    plots.plot_average_reconstruction(average, head, truth, times_ms=(2.5,))
+
+
+def test_same_figure_same_bytes(study, tmp_path):
+    head, truth, run = study
+    rec = run()
+    plots.plot_time_courses(rec, head, truth, path=tmp_path / "a.png")
+    plots.plot_time_courses(rec, head, truth, path=tmp_path / "b.png")
+    assert (tmp_path / "a.png").read_bytes() == (tmp_path / "b.png").read_bytes()
+
+
+@pytest.mark.parametrize(
+    "call, match",
+    [
+        (lambda h, t, r: plots.plot_prior_grid({}, h, t), "non-empty dict"),
+        (lambda h, t, r: plots.plot_exponent_comparison([r], h, t), "non-empty dict"),
+        (lambda h, t, r: plots.plot_time_courses(np.ones((3, 41)), h, t), "n_positions"),
+        (
+            lambda h, t, r: plots.plot_average_reconstruction(r, h, t, times_ms=(9.0,)),
+            "times_ms must be times within",
+        ),
+        (
+            lambda h, t, r: plots.plot_average_reconstruction(r, h, t, dynamic_range_db=0),
+            "dynamic_range_db must be positive",
+        ),
+    ],
+)
+def test_bad_input(study, call, match):
+    head, truth, run = study
+    with pytest.raises(ValueError, match=match):
+        call(head, truth, run())

@@ -1,0 +1,136 @@
+"""The head model and the P20/N20 scenario match shared/SKF_SPEC.md §5."""
+
+import mne
+import numpy as np
+import pytest
+
+from skf_ref.simulate import make_head_model, p20n20_scenario, simulate
+
+POSITIONS = 500
+# The noise standard deviation estimated from 64 x 41 x 20 samples has a relative standard
+# error of about 1 / sqrt(2 N) = 0.4 %; 3 % is more than five standard errors.
+SIGMA_RTOL = 0.03
+# mne.make_forward_dipole stores its gain in float32 (7 significant digits); the package
+# computes the same field in float64.
+FLOAT32_RTOL = 1e-6
+
+
+@pytest.fixture(scope="module")
+def head():
+    return make_head_model(POSITIONS)
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return p20n20_scenario()
+
+
+def test_head_model_geometry_and_lead_field(head):
+    assert abs(head.n_positions - POSITIONS) / POSITIONS < 0.05
+    assert head.leadfield.shape == (64, 3 * head.n_positions)
+    np.testing.assert_allclose(head.leadfield.sum(axis=0), 0, atol=1e-12 * 1e3)  # average ref
+    distances = np.linalg.norm(head.positions - head.origin, axis=1)
+    assert distances.max() < head.brain_radius  # inside the brain compartment
+    np.testing.assert_allclose(head.origin, [0, 0, 0.0401], atol=5e-4)  # fitted to biosemi64
+    assert not head.leadfield.flags.writeable
+    # free orientation in MNE's order: column 3 p + k is the k-th axis of position p
+    gain = head.fwd["sol"]["data"]
+    np.testing.assert_allclose(head.leadfield, gain - gain.mean(axis=0), rtol=1e-12)
+
+
+def test_seed_shifts_the_grid(head):
+    shifted = make_head_model(POSITIONS, seed=3)
+    assert abs(shifted.n_positions - POSITIONS) / POSITIONS < 0.05
+    assert not np.allclose(shifted.positions[:10], head.positions[:10])
+    again = make_head_model(POSITIONS, seed=3)
+    np.testing.assert_array_equal(again.positions, shifted.positions)
+
+
+def test_waveforms_and_times(scenario):
+    times_ms = scenario.times * 1e3
+    assert len(times_ms) == 41 and times_ms[0] == 0 and times_ms[-1] == pytest.approx(4.0)
+    deep, superficial = scenario.waveforms
+    np.testing.assert_allclose(scenario.peak_times * 1e3, [1.5, 2.5])
+    assert times_ms[np.argmax(deep)] == pytest.approx(1.5)
+    assert times_ms[np.argmax(superficial)] == pytest.approx(2.5)
+    np.testing.assert_allclose([deep.max(), superficial.max()], 10e-9)  # 10 nA m
+    # supports [0, 3] and [1, 4] ms: both active on (1, 3) ms only, a 2 ms overlap
+    both = (deep > 0) & (superficial > 0)
+    assert times_ms[both].min() > 1.0 and times_ms[both].max() < 3.0
+    assert times_ms[both].max() - times_ms[both].min() == pytest.approx(1.8)  # open interval
+    assert deep[times_ms >= 3.0 - 1e-9].max() == pytest.approx(0, abs=1e-20)
+    # Hann pulse: the deep waveform at 2.5 ms is a quarter of its peak (the echo's true ratio)
+    assert deep[np.isclose(times_ms, 2.5)][0] / deep.max() == pytest.approx(0.25)
+
+
+def test_source_positions_and_orientations(head, scenario):
+    truth = scenario.dipoles(head)
+    np.testing.assert_allclose(truth.positions * 1e3, [[-12, -32, 50], [-33, -37, 80]])
+    np.testing.assert_allclose(np.linalg.norm(truth.orientations, axis=1), 1.0)
+    deep = np.array([0.2, 0.196, -0.981])
+    np.testing.assert_allclose(truth.orientations[0], deep / np.linalg.norm(deep))
+    radial = truth.positions[1] - head.origin
+    assert truth.orientations[1] @ radial == pytest.approx(0, abs=1e-12)  # tangential
+    given, unit_radial = np.array([0.2, 1, 0]), radial / np.linalg.norm(radial)
+    tangential = given - (given @ unit_radial) * unit_radial  # what is left of (0.2, 1, 0)
+    np.testing.assert_allclose(truth.orientations[1], tangential / np.linalg.norm(tangential))
+
+
+def test_data_come_from_the_exact_dipoles(head, scenario):
+    sim = simulate(head, scenario, 30.0, seed=0)
+    truth = sim.truth
+    dipole = mne.Dipole(np.zeros(2), truth.positions, np.ones(2), truth.orientations, np.ones(2))
+    fwd, _ = mne.make_forward_dipole(dipole, head.sphere, head.info, verbose=False)
+    gain = fwd["sol"]["data"]  # MNE's dipole forward, stored in float32
+    expected = (gain - gain.mean(axis=0)) @ truth.waveforms
+    scale = abs(expected).max()
+    np.testing.assert_allclose(sim.Y_clean, expected, atol=FLOAT32_RTOL * scale)
+    np.testing.assert_allclose(sim.Y_clean.sum(axis=0), 0, atol=1e-13 * scale)  # float64 ref
+    # no inverse crime: the data are not a combination of the grid's own columns at the
+    # nearest positions (the exact dipoles lie off the grid)
+    nearest = np.linalg.norm(head.positions[:, None] - truth.positions[None], axis=2).min(axis=0)
+    assert nearest.min() > 1e-4
+
+
+@pytest.mark.parametrize("snr_db", [10.0, 20.0, 30.0])
+def test_noise_hits_the_requested_snr(head, scenario, snr_db):
+    residuals = [simulate(head, scenario, snr_db, seed).Y for seed in range(20)]
+    sim = simulate(head, scenario, snr_db, seed=0)
+    assert sim.sigma == pytest.approx(np.abs(sim.Y_clean).max() * 10 ** (-snr_db / 20))
+    noise = np.stack(residuals) - sim.Y_clean
+    assert np.std(noise) == pytest.approx(sim.sigma, rel=SIGMA_RTOL)
+    assert abs(np.mean(noise)) < 5 * sim.sigma / np.sqrt(noise.size)
+
+
+def test_same_seed_same_noise_other_seed_other_noise(head, scenario):
+    a, b = simulate(head, scenario, 20.0, 7), simulate(head, scenario, 20.0, 7)
+    np.testing.assert_array_equal(a.Y, b.Y)
+    assert not np.array_equal(a.Y, simulate(head, scenario, 20.0, 8).Y)
+
+
+@pytest.mark.parametrize(
+    "call, match",
+    [
+        (lambda: make_head_model(500, montage="biosemi65"), "montage must be the name"),
+        (lambda: make_head_model(5), "n_positions must be at least"),
+        (lambda: make_head_model(500.5), "n_positions must be an int"),
+        (lambda: make_head_model(500, seed=-1), "seed must be None or a non-negative int"),
+        (lambda: p20n20_scenario(pulse_ms=-3.0), "pulse_ms must be > 0"),
+        (lambda: p20n20_scenario(superficial_onset_ms=3.0), "superficial"),
+    ],
+)
+def test_bad_input(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()
+
+
+@pytest.mark.parametrize("snr_db", [float("nan"), float("inf"), -float("inf"), "20"])
+def test_snr_must_be_finite(head, scenario, snr_db):
+    with pytest.raises(ValueError, match="snr_db must be a finite real number"):
+        simulate(head, scenario, snr_db, seed=0)
+
+
+def test_too_coarse_a_grid_cannot_hold_the_scenario(scenario):
+    coarse = make_head_model(40)
+    with pytest.raises(ValueError, match="no grid position within 15 mm .* larger n_positions"):
+        simulate(coarse, scenario, 20.0, seed=0)
