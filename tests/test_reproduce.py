@@ -1,0 +1,372 @@
+"""validation.reproduce: the report end to end, its regenerability, and each decision rule.
+
+The decision rules are checked on hand-made sweep tables whose verdicts are known by
+construction; the report itself runs once, small (2 seeds, about 500 positions, a 3 x 3
+fine map), into two folders, which also proves that it regenerates byte for byte.
+"""
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from validation import reproduce as rp
+from validation.reproduce.settings import (
+    EXPONENTS,
+    MANIFEST,
+    NOISE_LEVELS,
+    RESULTS,
+    TUNED_PRIOR,
+    VERDICTS,
+)
+
+# The smallest report that still has every rule, table and figure: 2 seeds (a standard
+# error needs two), the coarsest head model the metrics accept, a 3 x 3 fine map.
+TINY = ["--quick", "--seeds", "2", "--n-positions", "500", "--fine-step", "30", "--jobs", "2"]
+N_FIGURES = 6 + 1 + 4 + 2  # prior grids, exponents, average maps, fine maps
+FIGURE_LINK = re.compile(r"!\[[^\]]*\]\(([^)]+)\)")
+
+
+@pytest.fixture(scope="module")
+def reports(tmp_path_factory):
+    """Two independent runs of the tiny report, each into its own folder."""
+    outs = [tmp_path_factory.mktemp(f"report{i}") for i in range(2)]
+    for out in outs:
+        assert rp.main([*TINY, "--out", str(out)]) == 0
+    return outs
+
+
+def _without_date(path):
+    return [line for line in path.read_text().splitlines() if not line.startswith("Generated:")]
+
+
+def _findings_rows(text):
+    section = text.split("## Findings", 1)[1].split("\n## ", 1)[0]
+    return [line for line in section.splitlines() if re.match(r"\| F\d", line)]
+
+
+class TestReport:
+    def test_rules_come_before_the_findings(self, reports):
+        text = (reports[0] / "REPORT.md").read_text()
+        assert 0 < text.index("## Decision rules") < text.index("## Findings")
+        assert text.count("Generated:") == 1
+
+    def test_one_valid_verdict_per_finding(self, reports):
+        rows = _findings_rows((reports[0] / "REPORT.md").read_text())
+        assert [row.split("|")[1].strip() for row in rows] == [f"F{i}" for i in range(1, 7)]
+        for row in rows:
+            verdict = row.rstrip(" |").rsplit("|", 1)[1].strip()
+            assert verdict.strip("*") in VERDICTS
+
+    def test_every_linked_figure_exists(self, reports):
+        links = FIGURE_LINK.findall((reports[0] / "REPORT.md").read_text())
+        assert len(set(links)) == N_FIGURES
+        for name in links:
+            assert (reports[0] / name).read_bytes().startswith(b"\x89PNG")
+
+    def test_tables_written(self, reports):
+        for name in ("paper_grid.csv", "fine_grid.csv", "summary.csv"):
+            assert len(pd.read_csv(reports[0] / name)) > 0
+        paper = pd.read_csv(reports[0] / "paper_grid.csv")
+        assert len(paper) == 3 * 2 * 2 * 4 * 3 * 2  # snr, EP, PM, exponent, smoother, seed
+
+    def test_regenerable_byte_for_byte(self, reports):
+        first, second = reports
+        assert _without_date(first / "REPORT.md") == _without_date(second / "REPORT.md")
+        for name in FIGURE_LINK.findall((first / "REPORT.md").read_text()):
+            assert (first / name).read_bytes() == (second / name).read_bytes(), name
+        for name in ("paper_grid.csv", "fine_grid.csv", "summary.csv"):
+            assert (first / name).read_bytes() == (second / name).read_bytes(), name
+
+    def test_rerun_reuses_rows_and_gives_the_same_report(self, reports, capsys):
+        out = reports[1]
+        before = _without_date(out / "REPORT.md")
+        assert rp.main([*TINY, "--out", str(out)]) == 0
+        generated = [
+            line for line in (out / "REPORT.md").read_text().splitlines() if "Generated:" in line
+        ]
+        assert "(0 of " in generated[0]
+        assert _without_date(out / "REPORT.md") == before
+
+
+class TestPrepareOut:
+    def _stale_folder(self, tmp_path, recorded):
+        for name in RESULTS:
+            (tmp_path / name).write_text("n_positions\n1\n")
+        (tmp_path / MANIFEST).write_text(json.dumps(recorded))
+
+    def test_same_settings_keep_the_results(self, tmp_path):
+        wanted = {"seeds": 3}
+        self._stale_folder(tmp_path, wanted)
+        assert rp.prepare_out(tmp_path, wanted) is None
+        assert all((tmp_path / name).exists() for name in RESULTS)
+
+    def test_changed_settings_delete_the_results(self, tmp_path):
+        self._stale_folder(tmp_path, {"seeds": 3})
+        assert "changed" in rp.prepare_out(tmp_path, {"seeds": 4})
+        assert not any((tmp_path / name).exists() for name in RESULTS)
+        assert json.loads((tmp_path / MANIFEST).read_text()) == {"seeds": 4}
+
+    def test_missing_manifest_deletes_the_results(self, tmp_path):
+        self._stale_folder(tmp_path, {})
+        (tmp_path / MANIFEST).unlink()
+        assert rp.prepare_out(tmp_path, {"seeds": 3}) is not None
+        assert not any((tmp_path / name).exists() for name in RESULTS)
+
+    def test_fresh_deletes_the_results(self, tmp_path):
+        self._stale_folder(tmp_path, {"seeds": 3})
+        assert rp.prepare_out(tmp_path, {"seeds": 3}, fresh=True) == "--fresh"
+        assert not any((tmp_path / name).exists() for name in RESULTS)
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--jobs", "0"], "--jobs"),
+        (["--seeds", "1"], "--seeds"),
+        (["--fine-step", "7"], "--fine-step"),
+        (["--fine-step", "-10"], "--fine-step"),
+        (["--bogus"], "unrecognized"),
+        (["--n-positions", "10"], "n_positions"),
+    ],
+)
+def test_bad_arguments_print_one_line_and_return_2(argv, message, tmp_path, capsys):
+    assert rp.main([*argv, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_runs_as_a_module():
+    """``python -m validation.reproduce`` reaches :func:`main` (bad arguments: exit 2)."""
+    result = subprocess.run(
+        [sys.executable, "-m", "validation.reproduce", "--bogus"],
+        cwd=Path(__file__).resolve().parents[1],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert result.returncode == 2
+    assert result.stderr.startswith("reproduce: unrecognized arguments: --bogus")
+
+
+# --------------------------------------------------------------------------- rule tables
+
+
+def _rows(snr, ep, pm, scores, exponent=0.5, smoother="none", **metrics):
+    """One row per seed; both peak errors equal the given score, so the score is that."""
+    n = len(scores)
+    columns = dict(
+        deep_detected=True,
+        deep_region_db=0.0,
+        deep_region_at_superficial_peak_db=-20.0,
+        echo=0.0,
+        separation=False,
+    )
+    columns.update(metrics)
+    columns = {k: list(v) if np.ndim(v) else [v] * n for k, v in columns.items()}
+    return pd.DataFrame(
+        dict(
+            snr_db=snr,
+            ep_snr_db=ep,
+            pm_snr_db=pm,
+            exponent=exponent,
+            smoother=smoother,
+            seed=range(n),
+            deep_error_mm=scores,
+            superficial_error_mm=scores,
+            **columns,
+        )
+    )
+
+
+def _corners(snr, means, spread=1.0, **metrics):
+    """The 2 x 2 tuning grid at one noise level: ``means`` maps (EP, PM) -> mean score."""
+    return pd.concat(
+        [
+            _rows(snr, ep, pm, [mean - spread, mean, mean + spread], **metrics)
+            for (ep, pm), mean in means.items()
+        ]
+    )
+
+
+def _means(m00, m20_0, m0_20, m20_20):
+    """(EP, PM) -> mean from the four means in the order (0,0), (20,0), (0,20), (20,20)."""
+    return {(0.0, 0.0): m00, (20.0, 0.0): m20_0, (0.0, 20.0): m0_20, (20.0, 20.0): m20_20}
+
+
+class TestStatistics:
+    def test_mean_and_standard_error(self):
+        table = _rows(10.0, 0.0, 0.0, [1.0, 2.0, 6.0])
+        mean, se, n = rp.cell_stats(table, 10.0, 0.0, 0.0, 0.5, "none")
+        assert (mean, n) == (3.0, 3)
+        assert se == pytest.approx(np.std([1.0, 2.0, 6.0], ddof=1) / np.sqrt(3))
+
+    def test_missing_setting_is_named(self):
+        with pytest.raises(ValueError, match="no rows for snr_db=20, ep_snr_db=0"):
+            rp.cell_stats(_rows(10.0, 0.0, 0.0, [1.0]), 20.0, 0.0, 0.0, 0.5, "none")
+
+    def test_undefined_echo_is_left_out(self):
+        table = _rows(10.0, 0.0, 0.0, [1.0, 1.0, 1.0], echo=[0.5, np.nan, 0.7])
+        mean, _, n = rp.cell_stats(table, 10.0, 0.0, 0.0, 0.5, "none", "echo")
+        assert (mean, n) == (pytest.approx(0.6), 2)
+
+
+class TestF1:
+    def test_reproduced(self):
+        finding = rp.rule_f1(_corners(10.0, _means(10, 40, 20, 50)))
+        assert finding.verdict == "reproduced"
+
+    def test_pm_hurting_more_is_partly(self):
+        assert rp.rule_f1(_corners(10.0, _means(10, 20, 40, 50))).verdict == "partly"
+
+    def test_other_best_is_partly(self):
+        assert rp.rule_f1(_corners(10.0, _means(30, 40, 20, 50))).verdict == "partly"
+
+    def test_neither_is_not_reproduced(self):
+        finding = rp.rule_f1(_corners(10.0, _means(30, 35, 40, 10)))
+        assert finding.verdict == "not reproduced"
+
+    def test_a_tie_for_best_is_no_best(self):
+        finding = rp.rule_f1(_corners(10.0, _means(10, 40, 10, 50)))
+        assert [ok for _, ok in finding.criteria] == [False, True]
+
+
+class TestF2:
+    AT_10 = _means(10, 40, 20, 50)  # spread 40 mm
+
+    def _table(self, at_20):
+        return pd.concat([_corners(10.0, self.AT_10), _corners(20.0, at_20)])
+
+    def test_reproduced(self):
+        assert rp.rule_f2(self._table(_means(10, 15, 12, 20))).verdict == "reproduced"
+
+    def test_more_sensitive_than_at_10_db_is_partly(self):
+        assert rp.rule_f2(self._table(_means(10, 80, 12, 90))).verdict == "partly"
+
+    def test_other_best_and_more_sensitive_is_not_reproduced(self):
+        finding = rp.rule_f2(self._table(_means(50, 10, 60, 90)))
+        assert finding.verdict == "not reproduced"
+
+
+class TestF3:
+    def test_ep_20_best_is_reproduced(self):
+        assert rp.rule_f3(_corners(30.0, _means(20, 10, 30, 40))).verdict == "reproduced"
+
+    def test_pm_20_best_is_reproduced(self):
+        assert rp.rule_f3(_corners(30.0, _means(20, 30, 10, 40))).verdict == "reproduced"
+
+    def test_both_tied_best_is_reproduced(self):
+        assert rp.rule_f3(_corners(30.0, _means(20, 10, 10, 40))).verdict == "reproduced"
+
+    def test_within_one_standard_error_is_partly(self):
+        # spread 3 -> SE = 3 / sqrt(3) = 1.73 mm; (EP 20, PM 0) is 1 mm above the best
+        table = _corners(30.0, _means(10, 11, 30, 40), spread=3.0)
+        assert rp.rule_f3(table).verdict == "partly"
+
+    def test_far_from_best_is_not_reproduced(self):
+        table = _corners(30.0, _means(10, 20, 30, 40), spread=3.0)
+        assert rp.rule_f3(table).verdict == "not reproduced"
+
+
+class TestF4:
+    def _table(self, echo_at_best):
+        """Best cell (0, 0) at every level; echo of the best cell per level, 0.9 elsewhere."""
+        frames = []
+        for snr, echo in zip(NOISE_LEVELS, echo_at_best, strict=True):
+            for (ep, pm), mean in _means(10, 40, 20, 50).items():
+                value = echo if (ep, pm) == (0.0, 0.0) else [0.9, 0.9, 0.9]
+                frames.append(_rows(snr, ep, pm, [mean - 1, mean, mean + 1], echo=value))
+        return pd.concat(frames)
+
+    def test_echo_at_every_level_is_reproduced(self):
+        finding = rp.rule_f4(self._table([[0.5, 0.6, 0.55]] * 3))
+        assert finding.verdict == "reproduced"
+
+    def test_echo_at_one_level_is_partly(self):
+        echoes = [[0.5, 0.6, 0.55], [-0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]]
+        assert rp.rule_f4(self._table(echoes)).verdict == "partly"
+
+    def test_echo_only_away_from_the_best_cell_is_not_reproduced(self):
+        assert rp.rule_f4(self._table([[-0.1, 0.1, 0.0]] * 3)).verdict == "not reproduced"
+
+
+class TestF5:
+    def _table(self, suppress=True, best=1.25, missed=(False, False, True), high=(-3, -3, -9)):
+        ep, pm = TUNED_PRIOR
+        scores = {1.0: 30.0, 1.25: 20.0, 1.5: 25.0, 0.5: 5.0}
+        scores[best] = 10.0
+        frames = []
+        for exponent in EXPONENTS:
+            frames.append(_rows(30.0, ep, pm, [50.0] * 3, exponent, deep_region_db=-2.0))
+            metrics = dict(deep_region_db=-5.0 if suppress else 0.0)
+            if exponent == 1.0:
+                metrics["deep_detected"] = list(missed)
+            if exponent == 1.5:
+                metrics["deep_region_at_superficial_peak_db"] = list(high)
+            frames.append(
+                _rows(
+                    30.0, ep, pm, [scores[exponent]] * 3, exponent, "rts-standardized", **metrics
+                )
+            )
+        return pd.concat(frames)
+
+    def test_all_four_is_reproduced(self):
+        finding = rp.rule_f5(self._table())
+        assert [ok for _, ok in finding.criteria] == [True] * 4
+        assert finding.verdict == "reproduced"
+
+    def test_exponent_1_best_is_partly(self):
+        finding = rp.rule_f5(self._table(best=1.0))
+        assert [ok for _, ok in finding.criteria] == [True, False, True, True]
+        assert finding.verdict == "partly"
+
+    def test_none_is_not_reproduced(self):
+        table = self._table(suppress=False, best=1.5, missed=(True, True, False), high=(-9,) * 3)
+        assert rp.rule_f5(table).verdict == "not reproduced"
+
+
+class TestF6:
+    def _table(self, smoothed, plain):
+        ep, pm = TUNED_PRIOR
+        frames = []
+        for snr, sep_s, sep_n in zip(NOISE_LEVELS, smoothed, plain, strict=True):
+            frames.append(
+                _rows(snr, ep, pm, [1.0] * 4, 1.25, "rts-standardized", separation=sep_s)
+            )
+            frames.append(_rows(snr, ep, pm, [1.0] * 4, 1.25, "none", separation=sep_n))
+        return pd.concat(frames)
+
+    HALF = [True, True, False, False]
+    NONE = [False] * 4
+
+    def test_separation_at_every_level_is_reproduced(self):
+        finding = rp.rule_f6(self._table([self.HALF] * 3, [self.NONE] * 3))
+        assert finding.verdict == "reproduced"
+
+    def test_no_better_than_unsmoothed_is_partly(self):
+        finding = rp.rule_f6(self._table([self.HALF] * 3, [self.NONE, self.HALF, self.HALF]))
+        assert finding.verdict == "partly"
+
+    def test_below_half_is_not_reproduced(self):
+        rare = [True, False, False, False]
+        finding = rp.rule_f6(self._table([rare] * 3, [self.NONE] * 3))
+        assert finding.verdict == "not reproduced"
+
+
+def test_evaluate_on_a_full_table_gives_six_findings():
+    frames = [_corners(snr, _means(10, 40, 20, 50)) for snr in NOISE_LEVELS]
+    frames.append(TestF5()._table())
+    frames.append(TestF6()._table([TestF6.HALF] * 3, [TestF6.NONE] * 3))
+    # F5 and F6 add 30 dB EP 20 PM 0 rows; keep the tuning corners unique
+    table = pd.concat(frames).drop_duplicates(
+        ["snr_db", "ep_snr_db", "pm_snr_db", "exponent", "smoother", "seed"]
+    )
+    findings = rp.evaluate(table)
+    assert [f.number for f in findings] == [1, 2, 3, 4, 5, 6]
+    assert all(f.verdict in VERDICTS for f in findings)

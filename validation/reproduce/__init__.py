@@ -1,0 +1,75 @@
+"""Reproduce the paper's findings (shared/SKF_SPEC.md §7) under decision rules fixed in advance.
+
+``python -m validation.reproduce [--quick] [--out DIR] [--jobs N] [--fresh]``
+``[--seeds N] [--n-positions N] [--fine-step DB]``
+
+Runs two sweeps with :func:`skf_ref.sweep.run_sweep` and writes ``DIR/REPORT.md`` with the
+decision rules (stated before any number), one verdict per finding, tables and figures:
+
+- ``paper_grid.csv``: the paper's grid, :func:`skf_ref.sweep.paper_grid` (10/20/30 dB; EP,
+  PM in {0, 20} dB; exponents 0.5, 1, 1.25, 1.5; no smoothing, "rts-standardized",
+  "rts-state"; seeds 0 .. n-1);
+- ``fine_grid.csv``: a finer EP x PM map, -20 .. 40 dB, for (exponent 0.5, no smoothing)
+  and (exponent 1.25, "rts-standardized"), at the same noise levels and seeds.
+
+Presets: the full run uses 10 seeds, the default head model (about 3000 positions) and a
+10 dB step of the fine map; ``--quick`` uses 3 seeds, about 1000 positions and a 20 dB
+step. ``--seeds``, ``--n-positions`` and ``--fine-step`` override the preset (the tests use
+them for an even smaller run).
+
+Resuming and regenerating. The results files are resumable: an interrupted run picks up
+the rows already written. ``DIR/settings.json`` records everything the rows depend on (the
+grids, the head model, the package versions and a digest of the ``skf_ref`` sources); when
+it differs from the current settings, or is missing, the results files are stale and are
+deleted before the sweeps start, so a report never mixes rows computed under different
+settings or code. ``--fresh`` deletes them regardless. After the sweeps each results file
+is rewritten sorted by its key, so with fixed seeds a fresh run reproduces it exactly.
+
+Everything in REPORT.md is regenerable byte for byte except its one ``Generated:`` line
+(date and wall time). PNGs are saved without a software/date stamp.
+
+The decision rules are pure functions of a sweep table (:func:`rule_f1` .. :func:`rule_f6`,
+:func:`evaluate`), so they can be checked on hand-made tables.
+
+Modules: ``settings`` (grid constants, presets, the manifest), ``stats`` (statistics over
+seeds of a sweep table), ``rules`` (the decision rules), ``runs`` (the figure runs checked
+against the sweep, post-hoc diagnostics), ``figures`` (matplotlib, imported lazily),
+``report`` and ``discussion`` (REPORT.md), ``cli`` (arguments, results files, sweeps,
+:func:`main`).
+"""
+
+from .cli import main, prepare_out, run_sweeps
+from .figures import make_figures, plot_fine_map
+from .report import ReportData, report_text
+from .rules import Finding, evaluate, rule_f1, rule_f2, rule_f3, rule_f4, rule_f5, rule_f6, verdict
+from .runs import CheckedRuns, Diagnostic, diagnostics, electrode_floor
+from .settings import Settings, manifest
+from .stats import cell_stats, corner_stats, summary_table
+
+__all__ = [
+    "CheckedRuns",
+    "Diagnostic",
+    "Finding",
+    "ReportData",
+    "Settings",
+    "cell_stats",
+    "corner_stats",
+    "electrode_floor",
+    "evaluate",
+    "diagnostics",
+    "main",
+    "make_figures",
+    "manifest",
+    "plot_fine_map",
+    "prepare_out",
+    "report_text",
+    "rule_f1",
+    "rule_f2",
+    "rule_f3",
+    "rule_f4",
+    "rule_f5",
+    "rule_f6",
+    "run_sweeps",
+    "summary_table",
+    "verdict",
+]

@@ -1,0 +1,171 @@
+"""The report's figures: prior grids, the exponent comparison, seed averages, fine maps.
+
+Matplotlib and :mod:`skf_ref.plots` are imported inside the functions, so importing this
+module (or the rules) does not need a plotting backend.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .settings import (
+    CORNERS,
+    NOISE_LEVELS,
+    RANKED_EXPONENTS,
+    SMOOTHED,
+    STAGES,
+    TUNED_PRIOR,
+    TUNING,
+)
+from .stats import _best, _cell, _fine_means, _setting_label, corner_stats
+
+__all__ = ["make_figures", "plot_fine_map"]
+
+
+def _save(fig, path):
+    """Save a PNG without a software/date stamp, so that reruns give identical bytes."""
+    fig.savefig(path, dpi=120, metadata={"Software": None})
+
+
+def _prior_grid_figures(out, runs):
+    from skf_ref import plots
+
+    names = {}
+    for snr in NOISE_LEVELS:
+        for tag, (exponent, smoother) in STAGES:
+            amps = {
+                (ep, pm): runs.amplitudes(snr, ep, pm, exponent, smoother, [0])[0]
+                for ep, pm in CORNERS
+            }
+            fig = plots.plot_prior_grid(
+                amps,
+                runs.head,
+                runs.truth,
+                title=f"{snr:g} dB, {_setting_label(exponent, smoother)} (seed 0)",
+            )
+            names[snr, tag] = f"prior_grid_{snr:g}dB_{tag}.png"
+            _save(fig, out / names[snr, tag])
+    return names
+
+
+def _exponent_figure(out, runs):
+    from skf_ref import plots
+
+    ep, pm = TUNED_PRIOR
+    amps = {e: runs.amplitudes(30.0, ep, pm, e, SMOOTHED[1], [0])[0] for e in RANKED_EXPONENTS}
+    fig = plots.plot_exponent_comparison(
+        amps,
+        runs.head,
+        runs.truth,
+        title=f"30 dB, EP {ep:g}, PM {pm:g}, {SMOOTHED[1]} (seed 0)",
+    )
+    _save(fig, out / "exponents_30dB.png")
+    return "exponents_30dB.png"
+
+
+def _average_figures(out, runs, seeds):
+    """Seed-averaged amplitude maps at 1.5 and 2.5 ms, 10 and 30 dB, without/with smoothing.
+
+    Without smoothing: exponent 0.5 at the noise level's best tuning cell (F4's setting);
+    smoothed: exponent 1.25, "rts-standardized", EP 20, PM 0 (F6's setting).
+    """
+    from skf_ref import plots
+
+    names = {}
+    for snr in (10.0, 30.0):
+        best = _best(corner_stats(runs.table, snr))[0]
+        for tag, prior, (exponent, smoother) in (
+            ("nonsmoothed", best, TUNING),
+            ("smoothed", TUNED_PRIOR, SMOOTHED),
+        ):
+            amps = runs.amplitudes(snr, *prior, exponent, smoother, range(seeds))
+            fig = plots.plot_average_reconstruction(
+                np.mean(amps, axis=0),
+                runs.head,
+                runs.truth,
+                times_ms=(1.5, 2.5),
+                title=f"{snr:g} dB, {_cell(prior)}, {_setting_label(exponent, smoother)}: "
+                f"amplitude averaged over {seeds} seeds",
+            )
+            names[snr, tag] = (f"average_{snr:g}dB_{tag}.png", prior)
+            _save(fig, out / names[snr, tag][0])
+    return names
+
+
+def plot_fine_map(means, values, title):
+    """Heat maps of the mean score over EP x PM, one panel per noise level.
+
+    Parameters
+    ----------
+    means : dict
+        Noise level (dB) -> ndarray, shape (len(values), len(values)): rows PM, columns EP.
+    values : list of float
+        EP and PM values (dB).
+    title : str
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
+
+    fig = Figure(figsize=(4.1 * len(means), 3.9), layout="constrained")
+    axes = fig.subplots(1, len(means), squeeze=False)[0]
+    ticks = [f"{v:g}" for v in values]
+    for ax, (snr, grid) in zip(axes, means.items(), strict=True):
+        image = ax.imshow(grid, origin="lower", cmap="viridis", interpolation="nearest")
+        ax.set_xticks(range(len(values)), ticks)
+        ax.set_yticks(range(len(values)), ticks)
+        ax.set_xlabel("EP-SNR (dB)")
+        ax.set_ylabel("PM-SNR (dB)")
+        ax.set_title(f"data SNR {snr:g} dB")
+        mid = 0.5 * (np.nanmin(grid) + np.nanmax(grid))
+        for (row, col), value in np.ndenumerate(grid):
+            colour = "black" if value > mid else "white"
+            ax.text(col, row, f"{value:.0f}", ha="center", va="center", fontsize=7, color=colour)
+        row, col = np.unravel_index(np.nanargmin(grid), grid.shape)
+        ax.add_patch(Rectangle((col - 0.5, row - 0.5), 1, 1, fill=False, ec="red", lw=2))
+        fig.colorbar(image, ax=ax, label="mean localization error (mm)", shrink=0.85)
+    fig.suptitle(title)
+    return fig
+
+
+def _fine_figures(out, fine, settings):
+    names = {}
+    for tag, (exponent, smoother) in STAGES:
+        means = _fine_means(fine, settings.fine_values(), exponent, smoother)
+        fig = plot_fine_map(
+            means,
+            settings.fine_values(),
+            f"{_setting_label(exponent, smoother)}: mean localization error over "
+            f"{settings.seeds} seeds (red box: lowest)",
+        )
+        names[tag] = f"fine_map_{tag}.png"
+        _save(fig, out / names[tag])
+    return names
+
+
+def make_figures(out, runs, settings, fine):
+    """Draw every figure of the report into ``out``; return their file names.
+
+    Parameters
+    ----------
+    out : Path
+    runs : CheckedRuns
+        Reconstructions checked against the paper-grid table.
+    settings : Settings
+    fine : pandas.DataFrame
+        The fine-map sweep table.
+
+    Returns
+    -------
+    dict
+        ``prior_grid``, ``exponents``, ``average``, ``fine_map`` -> file names.
+    """
+    return dict(
+        prior_grid=_prior_grid_figures(out, runs),
+        exponents=_exponent_figure(out, runs),
+        average=_average_figures(out, runs, settings.seeds),
+        fine_map=_fine_figures(out, fine, settings),
+    )

@@ -1,0 +1,167 @@
+"""What a report run computes: the fixed grid constants, the presets and the manifest.
+
+Everything here is data the sweeps, the rules, the figures and the report share; nothing
+here runs a sweep.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import platform
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+
+__all__ = [
+    "CORNERS",
+    "DEFAULT_OUT",
+    "EXPONENTS",
+    "FINE_RANGE",
+    "FULL",
+    "MANIFEST",
+    "MONTAGE",
+    "NOISE_LEVELS",
+    "QUICK",
+    "RANKED_EXPONENTS",
+    "RESULTS",
+    "SMOOTHED",
+    "SMOOTHERS",
+    "STAGES",
+    "TIE_MM",
+    "TUNED_PRIOR",
+    "TUNING",
+    "VERDICTS",
+    "Settings",
+    "manifest",
+]
+
+NOISE_LEVELS = (10.0, 20.0, 30.0)
+#: The 2 x 2 prior grid as (EP-SNR, PM-SNR) in dB; also the tie-break order.
+CORNERS = ((0.0, 0.0), (0.0, 20.0), (20.0, 0.0), (20.0, 20.0))
+#: The paper's tuning stage (exponent, smoother label) and its smoothed setting.
+TUNING = (0.5, "none")
+SMOOTHED = (1.25, "rts-standardized")
+#: Both settings with the tag their figure files carry, in the order they are shown.
+STAGES = (("nonsmoothed", TUNING), ("smoothed", SMOOTHED))
+#: The priors the paper tuned for smoothing: (EP-SNR, PM-SNR).
+TUNED_PRIOR = (20.0, 0.0)
+EXPONENTS = (0.5, 1.0, 1.25, 1.5)
+#: The smoothed exponents the paper ranks (F5): 1 too low, 1.25 best, 1.5 too high.
+RANKED_EXPONENTS = (1.0, 1.25, 1.5)
+#: Smoother labels of the paper grid, as in the sweep table ("none": no smoothing).
+SMOOTHERS = ("none", "rts-standardized", "rts-state")
+FINE_RANGE = (-20.0, 40.0)
+#: Mean scores closer than this (mm) are tied: peak errors are grid distances, so exact ties
+#: between cells are common; the tolerance only absorbs rounding of the means.
+TIE_MM = 1e-6
+VERDICTS = ("reproduced", "partly", "not reproduced")
+MONTAGE = "biosemi64"
+DEFAULT_OUT = Path(__file__).resolve().parent.parent / "report"
+RESULTS = ("paper_grid.csv", "fine_grid.csv")
+MANIFEST = "settings.json"
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What a report run computes (everything its rows depend on, except the code).
+
+    Parameters
+    ----------
+    seeds : int
+        Noise seeds 0 .. seeds - 1 (at least 2, for a standard error).
+    n_positions : int
+        Requested source positions of the head model.
+    fine_step : float
+        Step (dB) of the fine EP x PM map over -20 .. 40 dB; must divide 60.
+    quick : bool
+        Whether the ``--quick`` preset was asked (for the command line in the report).
+    """
+
+    seeds: int = 10
+    n_positions: int = 3000
+    fine_step: float = 10.0
+    quick: bool = False
+
+    def paper_grid(self):
+        """The paper's grid with this run's seeds (:func:`skf_ref.sweep.paper_grid`)."""
+        from skf_ref.sweep import paper_grid
+
+        return paper_grid(seeds=self.seeds)
+
+    def fine_values(self):
+        """EP and PM values (dB) of the fine map."""
+        n = round((FINE_RANGE[1] - FINE_RANGE[0]) / self.fine_step)
+        return [FINE_RANGE[0] + k * self.fine_step for k in range(n + 1)]
+
+    def fine_grids(self):
+        """One full product grid per fine-map setting (run_sweep takes a product)."""
+        return [
+            dict(
+                snr_db=list(NOISE_LEVELS),
+                ep_snr_db=self.fine_values(),
+                pm_snr_db=self.fine_values(),
+                exponent=[exponent],
+                smoother=[None if smoother == "none" else smoother],
+                seed=list(range(self.seeds)),
+            )
+            for exponent, smoother in (TUNING, SMOOTHED)
+        ]
+
+    def command(self):
+        """The command line that regenerates these results (without --out and --jobs)."""
+        preset = QUICK if self.quick else FULL
+        parts = ["python -m validation.reproduce"] + (["--quick"] if self.quick else [])
+        if self.seeds != preset.seeds:
+            parts.append(f"--seeds {self.seeds}")
+        if self.n_positions != preset.n_positions:
+            parts.append(f"--n-positions {self.n_positions}")
+        if self.fine_step != preset.fine_step:
+            parts.append(f"--fine-step {self.fine_step:g}")
+        return " ".join(parts)
+
+
+FULL = Settings()
+QUICK = Settings(seeds=3, n_positions=1000, fine_step=20.0, quick=True)
+
+
+def _source_digest():
+    """SHA-256 of the skf_ref sources: results computed by other code are stale."""
+    import skf_ref
+
+    digest = hashlib.sha256()
+    for path in sorted(Path(skf_ref.__file__).parent.glob("*.py")):
+        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+def _versions():
+    import skf_ref
+
+    versions = {"python": platform.python_version(), "skf_ref": skf_ref.__version__}
+    for package in ("numpy", "scipy", "pandas", "mne", "matplotlib", "joblib", "filterpy"):
+        try:
+            versions[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            versions[package] = "not installed"
+    return versions
+
+
+def manifest(settings):
+    """Everything the results files depend on, as a JSON-ready dict.
+
+    Parameters
+    ----------
+    settings : Settings
+
+    Returns
+    -------
+    dict
+    """
+    return dict(
+        paper_grid=settings.paper_grid(),
+        fine_grids=settings.fine_grids(),
+        n_positions=settings.n_positions,
+        montage=MONTAGE,
+        versions=_versions(),
+        skf_ref_sources_sha256=_source_digest(),
+    )
