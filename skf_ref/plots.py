@@ -93,7 +93,8 @@ def plot_time_courses(reconstruction, head, truth, ax=None, title=None, path=Non
     fig = _figure(5.0, 3.2) if ax is None else ax.figure
     ax = fig.add_subplot() if ax is None else ax
     _draw_time_courses(ax, reconstruction, head, truth)
-    ax.legend(fontsize="small", loc="upper right", framealpha=0.9)
+    ax.set_ylim(top=1.4)  # room for the legend above the curves
+    ax.legend(fontsize="small", loc="upper center", ncols=2, framealpha=0.9)
     if title is not None:
         ax.set_title(title)
     return _finish(fig, path)
