@@ -157,9 +157,12 @@ def _rts_gains(p_pred, p_filt, c_pred, a):
     return gamma, beta
 
 
-def _backward(z, gain, a):
-    """``s_t = z_t + G_t (s_{t+1} - a z_t)``, ``s_T = z_T``; gain per step, (T-1, ...)."""
-    s = z.copy()
+def _backward(z, gain, a, overwrite=False):
+    """``s_t = z_t + G_t (s_{t+1} - a z_t)``, ``s_T = z_T``; gain per step, (T-1, ...).
+
+    With ``overwrite`` the result replaces ``z`` (step t reads only ``z_t`` and ``s_{t+1}``).
+    """
+    s = z if overwrite else z.copy()
     for t in range(len(z) - 2, -1, -1):
         # the same, in place: s_t = (1 - a G_t) z_t + G_t s_{t+1}
         s[t] *= 1 - a * gain[t]
@@ -263,9 +266,7 @@ class SpectralModel:
         rho_sq = np.sum((Yw - self.U @ eta.T) ** 2)  # data outside span U
         xi, quadratic = _means(self.s, eta, self.p_pred, a)
         log_likelihood = -0.5 * (T * m * _LOG_2PI + self._log_det_S + quadratic + rho_sq)
-        project = smoother == "rts-standardized"
-        filtered = functools.cache(lambda: self._standardized(xi, exponent, project))
-        z_filtered = lambda: filtered()[0]  # noqa: E731
+        z_filtered = functools.cache(lambda: self._standardized(xi, exponent)[0])
         x_filtered = functools.cache(lambda: self._expand(xi))
         x, z = x_filtered, z_filtered
         gamma, beta = _rts_gains(self.p_pred, self.p_filt, self.c_pred, a)
@@ -274,7 +275,12 @@ class SpectralModel:
             x = functools.cache(lambda: self._expand(xi_s))
             z = functools.cache(lambda: self._standardized(xi_s, exponent)[0])
         elif smoother == "rts-standardized":
-            z = functools.cache(lambda: _smooth_standardized(*filtered(), self.V, gamma, beta, a))
+            # z smooths its own z_{t|t} in place: asking for z alone holds one (T, n) array
+            z = functools.cache(
+                lambda: _smooth_standardized(
+                    *self._standardized(xi, exponent, project=True), self.V, gamma, beta, a
+                )
+            )
         return Reconstruction(
             z=lambda: z().T,
             x=lambda: x().T,
@@ -319,9 +325,9 @@ def run(L, Y, R, transition, q, theta0, exponent, smoother):
 
 
 def _smooth_standardized(zf, zeta, V, gamma, beta, a):
-    """``s = h + V delta`` of the module docstring; zf is (T, n), ``zeta = zf V``."""
+    """``s = h + V delta`` of the module docstring, written over zf (T, n); ``zeta = zf V``."""
     beta_col = beta[:, None]
-    h = _backward(zf, beta_col, a)  # scalar gains on whole vectors: O(n T)
+    h = _backward(zf, beta_col, a, overwrite=True)  # scalar gains on whole vectors: O(n T)
     chi = _backward(zeta, beta_col, a)  # = V^T h
     delta = np.zeros_like(zeta)
     for t in range(len(zf) - 2, -1, -1):
