@@ -269,7 +269,7 @@ def main(argv=None):
     if unknown:
         print(f"bench: unknown --paths {sorted(unknown)}; choose from {PATHS}", file=sys.stderr)
         return 2
-    table = benchmark(sizes, paths, args.repeats)
+    table = benchmark(sizes, paths, args.repeats, progress=lambda line: print(line, flush=True))
     args.out.mkdir(parents=True, exist_ok=True)
     table.to_csv(args.out / "results.csv", index=False)
     header = f"Machine: {_machine()}. Median wall time; peak traced memory of one run.\n\n"
