@@ -46,16 +46,21 @@ def check_int(name, value, *, minimum=1):
 
 
 def check_array(name, value, shape):
-    """A finite float array of exactly ``shape`` (``None`` entries match any length)."""
+    """A finite float array of exactly ``shape``.
+
+    Entries of ``shape`` that are ``None`` or a name (``"n_times"``) match any length; the
+    error message shows the names.
+    """
     if np.iscomplexobj(value):
         raise TypeError(f"{name} must be real, got a complex array")
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as err:
         raise TypeError(f"{name} must be a numeric array, got {type(value).__name__}") from err
-    wanted = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
+    names = ["any" if s is None else str(s) for s in shape]
+    wanted = f"({names[0]},)" if len(names) == 1 else f"({', '.join(names)})"
     if array.ndim != len(shape) or any(
-        s is not None and s != got for s, got in zip(shape, array.shape, strict=False)
+        isinstance(s, int) and s != got for s, got in zip(shape, array.shape, strict=False)
     ):
         raise ValueError(f"{name} must have shape {wanted}, got {array.shape}")
     if not np.all(np.isfinite(array)):

@@ -15,6 +15,8 @@ import numbers
 
 import numpy as np
 
+from ._validation import check_array
+
 __all__ = [
     "DYNAMIC_RANGE_DB",
     "REGION_RADIUS_MM",
@@ -37,34 +39,22 @@ REGION_RADIUS_MM = 15.0
 DYNAMIC_RANGE_DB = 6.0
 
 
-def _array(value, name, ndim, shape_text):
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a numeric array of shape {shape_text}") from None
-    if arr.ndim != ndim:
-        raise ValueError(f"{name} must have shape {shape_text}, got shape {arr.shape}")
-    if not np.isfinite(arr).all():
-        raise ValueError(f"{name} must be finite")
-    return arr
-
-
 def _positions(positions):
-    pos = _array(positions, "positions", 2, "(n_positions, 3)")
+    pos = check_array("positions", positions, ("n_positions", 3))
     if pos.shape[1] != 3 or pos.shape[0] == 0:
         raise ValueError(f"positions must have shape (n_positions, 3), got shape {pos.shape}")
     return pos
 
 
 def _point(value, name):
-    point = _array(value, name, 1, "(3,)")
+    point = check_array(name, value, (3,))
     if point.shape != (3,):
         raise ValueError(f"{name} must have shape (3,), got shape {point.shape}")
     return point
 
 
 def _amplitude(amplitude, positions):
-    amp = _array(amplitude, "amplitude", 2, "(n_positions, n_times)")
+    amp = check_array("amplitude", amplitude, ("n_positions", "n_times"))
     if amp.shape[0] != positions.shape[0] or amp.shape[1] == 0:
         raise ValueError(
             f"amplitude must have shape (n_positions, n_times) = ({positions.shape[0]}, "
@@ -113,7 +103,7 @@ def amplitude_from_components(z, n_components=3):
     array([[5.],
            [1.]])
     """
-    z = _array(z, "z", 2, "(n_components * n_positions, n_times)")
+    z = check_array("z", z, ("n_components * n_positions", "n_times"))
     if z.shape[0] % n_components:
         raise ValueError(
             f"z must have shape (n_components * n_positions, n_times) with n_components="
@@ -144,7 +134,7 @@ def as_amplitude(reconstruction, n_positions):
     """
     if hasattr(reconstruction, "amplitude") and callable(reconstruction.amplitude):
         reconstruction = reconstruction.amplitude(3)
-    amp = _array(reconstruction, "reconstruction amplitude", 2, "(n_positions, n_times)")
+    amp = check_array("reconstruction amplitude", reconstruction, ("n_positions", "n_times"))
     if amp.shape[0] != n_positions:
         raise ValueError(
             f"reconstruction amplitude must have shape (n_positions, n_times) with "
@@ -371,7 +361,7 @@ def time_course_correlation(amplitude, positions, true_position, true_waveform):
     1.0
     """
     course = region_time_course(amplitude, positions, true_position)
-    wave = np.abs(_array(true_waveform, "true_waveform", 1, "(n_times,)"))
+    wave = np.abs(check_array("true_waveform", true_waveform, ("n_times",)))
     if wave.shape != course.shape:
         raise ValueError(
             f"true_waveform must have shape (n_times,) = ({course.size},), got {wave.shape}"
@@ -457,10 +447,10 @@ def summarize(reconstruction, head, truth):
     (0.0, 0.0, True)
     """
     positions = _positions(head.positions)
-    times = _array(truth.times, "truth.times", 1, "(n_times,)")
-    true_positions = _array(truth.positions, "truth.positions", 2, "(2, 3)")
-    waveforms = _array(truth.waveforms, "truth.waveforms", 2, "(2, n_times)")
-    peak_times = _array(truth.peak_times, "truth.peak_times", 1, "(2,)")
+    times = check_array("truth.times", truth.times, ("n_times",))
+    true_positions = check_array("truth.positions", truth.positions, ("n_sources", 3))
+    waveforms = check_array("truth.waveforms", truth.waveforms, ("n_sources", "n_times"))
+    peak_times = check_array("truth.peak_times", truth.peak_times, ("n_sources",))
     if true_positions.shape != (2, 3) or waveforms.shape != (2, times.size):
         raise ValueError(
             f"truth must hold 2 sources: positions (2, 3) and waveforms (2, {times.size}), "
