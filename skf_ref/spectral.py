@@ -233,9 +233,10 @@ class SpectralModel:
         projection = np.zeros_like(u) if project else None
 
         def fill(c, view):
-            standardize(self._raw_weights(c), u @ self.V[c].T, exponent, out=view)
-            if project:  # while the chunk is in cache
-                projection[:] += view @ self.V[c]
+            chunk = standardize(self._raw_weights(c), u @ self.V[c].T, exponent)[1]
+            if project:  # while the chunk is contiguous and in cache
+                projection[:] += chunk @ self.V[c]
+            view[:] = chunk
 
         return _by_columns(self.n_sources, self.n_times, fill), projection
 
