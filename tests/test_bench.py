@@ -1,0 +1,37 @@
+"""The benchmark script runs every path and reports what the memory guard refuses.
+
+No timing is asserted here: performance targets live in validation/bench.py's output.
+"""
+
+import importlib
+
+import pytest
+
+from validation import bench
+
+
+def test_every_path_runs_at_a_tiny_size(tmp_path):
+    table = bench.benchmark(sizes=[(300, 32, 4)], repeats=1, progress=lambda line: None)
+    assert list(table["path"]) == list(bench.PATHS)
+    assert (table["status"] == "ok").all()
+    assert (table["seconds"] > 0).all() and (table["peak_mib"] > 0).all()
+    text = bench.to_markdown(table)
+    assert text.count("\n") == 2 + len(bench.PATHS)
+
+
+def test_paths_past_the_memory_guard_are_reported_not_run(monkeypatch):
+    module = importlib.import_module("skf_ref.reconstruct")  # the module, not the function
+    monkeypatch.setattr(module, "available_memory", lambda: 2**20)
+    table = bench.benchmark(
+        sizes=[(300, 32, 4)], paths=("dense", "spectral"), repeats=1, progress=lambda line: None
+    )
+    dense, spectral = table.itertuples()
+    assert dense.status == "not runnable" and "GiB for its covariances" in dense.note
+    assert spectral.status == "ok"
+    assert "not runnable" in bench.to_markdown(table)
+
+
+@pytest.mark.parametrize("argv", [["--size", "300,32"], ["--paths", "gpu"], ["--repeats", "0"]])
+def test_bad_arguments_exit_2(argv, capsys):
+    assert bench.main(argv) == 2
+    assert capsys.readouterr().err.count("\n") == 1
