@@ -100,8 +100,10 @@ def _isotropic(value):
     """The scalar c if value is c or c I, else None."""
     if np.ndim(value) == 0:
         return float(value)
-    c = value[0, 0]
-    return float(c) if np.array_equal(value, c * np.eye(len(value))) else None
+    diagonal = np.diagonal(value)
+    c = diagonal[0]
+    isotropic = np.all(diagonal == c) and np.count_nonzero(value) == np.count_nonzero(diagonal)
+    return float(c) if isotropic else None
 
 
 def _whitener(R):
