@@ -74,6 +74,28 @@ def _as_matrix(value, n):
     return value * np.eye(n) if np.ndim(value) == 0 else value
 
 
+def _validated(L, Y, noise_std, noise_cov, theta0, q, transition, exponent):
+    """The model's arrays and scalars, checked; R as a matrix."""
+    L = check_leadfield(L)
+    m, n = L.shape
+    Y = check_array("Y", Y, (m, None))
+    if Y.shape[1] < 1:
+        raise ValueError("Y must have at least one time step (column)")
+    if (noise_std is None) == (noise_cov is None):
+        raise ValueError("give exactly one of noise_std (a scalar) or noise_cov (a matrix)")
+    if noise_std is not None:
+        R = check_real("noise_std", noise_std, positive=True) ** 2 * np.eye(m)
+    else:
+        R = check_spd("noise_cov", noise_cov, m)
+    theta0 = check_scalar_or_spd("theta0", theta0, n)
+    q = check_scalar_or_spd("q", q, n, allow_zero=True)
+    A = check_transition(transition, n)
+    exponent = check_real("exponent", exponent, nonnegative=True)
+    if np.ndim(q) == 0 and q == 0 and np.ndim(A) == 0 and A == 0:
+        raise ValueError("q must be > 0 when transition is 0: P_t|t-1 would be 0")
+    return L, Y, R, theta0, q, A, exponent
+
+
 def reconstruct(
     L,
     Y,
@@ -137,27 +159,14 @@ def reconstruct(
     >>> int(np.argmax(np.abs(rec.z[:, 3])))
     3
     """
-    L = check_leadfield(L)
-    (m, n) = L.shape
-    Y = check_array("Y", Y, (m, None))
-    if Y.shape[1] < 1:
-        raise ValueError("Y must have at least one time step (column)")
-    if (noise_std is None) == (noise_cov is None):
-        raise ValueError("give exactly one of noise_std (a scalar) or noise_cov (a matrix)")
-    if noise_std is not None:
-        R = check_real("noise_std", noise_std, positive=True) ** 2 * np.eye(m)
-    else:
-        R = check_spd("noise_cov", noise_cov, m)
-    theta0 = check_scalar_or_spd("theta0", theta0, n)
-    q = check_scalar_or_spd("q", q, n, allow_zero=True)
-    A = check_transition(transition, n)
-    exponent = check_real("exponent", exponent, nonnegative=True)
+    L, Y, R, theta0, q, A, exponent = _validated(
+        L, Y, noise_std, noise_cov, theta0, q, transition, exponent
+    )
     if memory_limit is not None:
         memory_limit = check_real("memory_limit", memory_limit, positive=True)
-    if np.ndim(q) == 0 and q == 0 and np.ndim(A) == 0 and A == 0:
-        raise ValueError("q must be > 0 when transition is 0: P_t|t-1 would be 0")
     check_choice("smoother", smoother, SMOOTHERS)
     check_choice("method", method, METHODS)
+    n = L.shape[1]
     problem = spectral.qualification_problem(A, q, theta0)
     if method == "auto":
         method = "dense" if problem else "spectral"
