@@ -29,6 +29,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from skf_ref._io import atomic_path
+
 SIZES = ((600, 64, 41), (1500, 64, 41), (9000, 64, 41), (9000, 64, 1000), (150000, 128, 1000))
 PATHS = ("filterpy", "dense", "spectral", "mne-sloreta", "mne-sloreta+make")
 MONTAGES = {32: "biosemi32", 64: "biosemi64", 128: "biosemi128", 256: "biosemi256"}
@@ -317,8 +319,10 @@ def main(argv=None):
         return 2
     table = benchmark(sizes, paths, args.repeats, progress=lambda line: print(line, flush=True))
     args.out.mkdir(parents=True, exist_ok=True)
-    table.to_csv(args.out / "results.csv", index=False)
-    (args.out / "results.md").write_text(report(table))
+    with atomic_path(args.out / "results.csv") as tmp:
+        table.to_csv(tmp, index=False)
+    with atomic_path(args.out / "results.md") as tmp:
+        tmp.write_text(report(table))
     print(f"wrote {args.out / 'results.md'} and {args.out / 'results.csv'}")
     return 0
 

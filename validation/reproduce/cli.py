@@ -14,6 +14,8 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
+from skf_ref._io import atomic_path
+
 from .figures import make_figures
 from .report import ReportData, report_text
 from .rules import evaluate
@@ -69,7 +71,8 @@ def prepare_out(out, wanted, fresh=False):
     if reason is not None:
         for path in existing:
             path.unlink()
-    recorded.write_text(json.dumps(wanted, indent=1, sort_keys=True) + "\n")
+    with atomic_path(recorded) as tmp:
+        tmp.write_text(json.dumps(wanted, indent=1, sort_keys=True) + "\n")
     return reason if existing else None
 
 
@@ -105,14 +108,12 @@ def run_sweeps(settings, out, n_jobs, progress):
 
 def _sorted_rewrite(path):
     """Sort a results file by its key and rewrite it (atomically); return the table."""
-    from skf_ref.cli import atomic_path
     from skf_ref.sweep import KEY, read_results
 
     table = read_results(path)
     table = table.sort_values(list(KEY), kind="stable", ignore_index=True)
     with atomic_path(path) as tmp:
         table.to_csv(tmp, index=False, lineterminator="\n")
-        tmp.chmod(0o644)
     return table
 
 
@@ -226,14 +227,16 @@ def main(argv=None):
         print(f"reproduce: deleted the previous results ({reason})", file=sys.stderr)
     paper, fine, computed = run_sweeps(settings, out, args.jobs, sys.stderr.isatty())
     data = _report_data(settings, head, wanted, paper, fine, out)
-    summary_table(paper, fine).to_csv(
-        out / "summary.csv", index=False, float_format="%.6g", lineterminator="\n"
-    )
+    with atomic_path(out / "summary.csv") as tmp:
+        summary_table(paper, fine).to_csv(
+            tmp, index=False, float_format="%.6g", lineterminator="\n"
+        )
     text = report_text(data)
     elapsed = time.perf_counter() - start
     generated = _generated(elapsed, args.jobs, computed, len(paper) + len(fine))
     title, rest = text.split("\n", 1)
-    (out / "REPORT.md").write_text(f"{title}\n\n{generated}\n{rest}")
+    with atomic_path(out / "REPORT.md") as tmp:
+        tmp.write_text(f"{title}\n\n{generated}\n{rest}")
     for finding in data.findings:
         print(f"F{finding.number}: {finding.verdict}")
     print(f"reproduce: wrote {out / 'REPORT.md'} in {elapsed:.1f} s")

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from skf_ref._io import atomic_path
+
 from .settings import (
     CORNERS,
     NOISE_LEVELS,
@@ -24,7 +26,8 @@ __all__ = ["make_figures", "plot_fine_map"]
 
 def _save(fig, path):
     """Save a PNG without a software/date stamp, so that reruns give identical bytes."""
-    fig.savefig(path, dpi=120, metadata={"Software": None})
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, metadata={"Software": None})
 
 
 def _prior_grid_figures(out, runs):
