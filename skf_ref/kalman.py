@@ -10,6 +10,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from ._standardize import inverse_sqrt, standardize
+from ._validation import check_real
 from .result import Reconstruction
 
 __all__ = ["StandardizedKalmanFilter", "run"]
@@ -54,7 +55,7 @@ class StandardizedKalmanFilter(KalmanFilter):
 
     def __init__(self, dim_x, dim_z, exponent=0.5):
         super().__init__(dim_x, dim_z)
-        self.exponent = exponent
+        self.exponent = check_real("exponent", exponent, nonnegative=True)
         self.weights = np.full(dim_x, np.nan)
         self.x_std = np.full(dim_x, np.nan)
         self.raw_weights = np.full(dim_x, np.nan)

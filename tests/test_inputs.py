@@ -232,3 +232,14 @@ def test_square_data_is_not_transposed():
 def test_inputs_that_once_slipped_through(arguments, error, match):
     with pytest.raises(error, match=match):
         reconstruct(**arguments())
+
+
+@pytest.mark.parametrize(
+    "exponent, error, match",
+    [(-0.5, ValueError, "exponent must be >= 0"), ("1", TypeError, "exponent must be a real")],
+)
+def test_filter_class_checks_its_exponent(exponent, error, match):
+    from skf_ref import StandardizedKalmanFilter
+
+    with pytest.raises(error, match=match):
+        StandardizedKalmanFilter(dim_x=3, dim_z=2, exponent=exponent)
