@@ -43,7 +43,7 @@ from ._io import atomic_path
 from ._validation import check_choice
 from .reconstruct import SMOOTHERS
 
-__all__ = ["run_sweep", "paper_grid", "check_grid", "run_group", "AXES", "KEY"]
+__all__ = ["run_sweep", "paper_grid", "check_grid", "run_group", "run_on_head", "AXES", "KEY"]
 
 AXES = ("snr_db", "ep_snr_db", "pm_snr_db", "exponent", "smoother", "seed")
 GROUP = ("snr_db", "ep_snr_db", "pm_snr_db")
@@ -163,13 +163,34 @@ def run_group(snr_db, ep_snr_db, pm_snr_db, runs, n_positions=3000, montage="bio
     Returns
     -------
     list of dict
-        One tidy row per run, in the order of ``runs``.
+        One tidy row per run, in the order of the seeds, then of ``runs``.
+    """
+    from . import simulate
+
+    head = simulate.make_head_model(n_positions, montage)
+    return run_on_head(head, snr_db, ep_snr_db, pm_snr_db, runs, n_positions=n_positions)
+
+
+def run_on_head(head, snr_db, ep_snr_db, pm_snr_db, runs, n_positions=None):
+    """:func:`run_group` on a given head model (a cropped grid, another montage...).
+
+    Parameters
+    ----------
+    head : skf_ref.simulate.HeadModel
+    snr_db, ep_snr_db, pm_snr_db : float
+    runs : list of (exponent, smoother, seed)
+    n_positions : int, optional
+        The ``n_positions`` recorded in the rows (the requested size, which keys the
+        results file); default ``head.n_positions``.
+
+    Returns
+    -------
+    list of dict
     """
     from . import metrics, simulate
     from .priors import priors_from_snr
     from .spectral import SpectralModel
 
-    head = simulate.make_head_model(n_positions, montage)
     scenario = simulate.p20n20_scenario()
     L, T = head.leadfield, len(scenario.times)
     model = None
@@ -185,8 +206,8 @@ def run_group(snr_db, ep_snr_db, pm_snr_db, runs, n_positions=3000, montage="bio
                 continue
             rec = model.apply(sim.Y, exponent, smoother)
             params = dict(
-                n_positions=n_positions,
-                montage=montage,
+                n_positions=head.n_positions if n_positions is None else n_positions,
+                montage=head.montage,
                 snr_db=snr_db,
                 ep_snr_db=ep_snr_db,
                 pm_snr_db=pm_snr_db,
