@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 
 from validation import reproduce as rp
+from validation.reproduce.sensitivity import SENSITIVITY, crop_head
 from validation.reproduce.settings import (
     EXPONENTS,
     MANIFEST,
@@ -81,8 +82,20 @@ class TestReport:
         assert _without_date(first / "REPORT.md") == _without_date(second / "REPORT.md")
         for name in FIGURE_LINK.findall((first / "REPORT.md").read_text()):
             assert (first / name).read_bytes() == (second / name).read_bytes(), name
-        for name in ("paper_grid.csv", "fine_grid.csv", "summary.csv"):
+        for name in ("paper_grid.csv", "fine_grid.csv", "summary.csv", SENSITIVITY):
             assert (first / name).read_bytes() == (second / name).read_bytes(), name
+
+    def test_sensitivity_follows_the_discussion(self, reports):
+        text = (reports[0] / "REPORT.md").read_text()
+        title = "## Sensitivity (post hoc): source grid above the lowest electrode"
+        assert text.index("## Discussion") < text.index(title) < text.index("## Tables")
+        section = text.split(title, 1)[1].split("\n## ", 1)[0]
+        assert re.search(r"\d+ of \d+ positions remain", section)
+        rows = [line for line in section.splitlines() if re.match(r"\| F\d", line)]
+        assert [row.split("|")[1].strip() for row in rows] == ["F5", "F6"]
+        table = pd.read_csv(reports[0] / SENSITIVITY)
+        # snr, exponent, smoother (none, rts-standardized), seed
+        assert len(table) == 3 * 4 * 2 * QUICK_SEEDS
 
     def test_rerun_reuses_rows_and_gives_the_same_report(self, reports, capsys):
         out = reports[1]
@@ -93,6 +106,21 @@ class TestReport:
         ]
         assert "(0 of " in generated[0]
         assert _without_date(out / "REPORT.md") == before
+
+
+def test_crop_keeps_the_positions_at_or_above_the_lowest_electrode():
+    from skf_ref import simulate
+
+    head = simulate.make_head_model(500)
+    cropped = crop_head(head)
+    floor = rp.electrode_floor(head)
+    assert (cropped.positions[:, 2] >= floor).all()
+    assert 0 < cropped.n_positions < head.n_positions
+    assert cropped.n_positions == (head.positions[:, 2] >= floor).sum()
+    # the three lead-field columns of each kept position, in order
+    kept = np.flatnonzero(head.positions[:, 2] >= floor)
+    L = head.leadfield.reshape(head.n_channels, -1, 3)[:, kept].reshape(head.n_channels, -1)
+    np.testing.assert_array_equal(cropped.leadfield, L)
 
 
 class TestPrepareOut:

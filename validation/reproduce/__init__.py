@@ -33,7 +33,8 @@ The decision rules are pure functions of a sweep table (:func:`rule_f1` .. :func
 
 Modules: ``settings`` (grid constants, presets, the manifest), ``stats`` (statistics over
 seeds of a sweep table), ``rules`` (the decision rules), ``runs`` (the figure runs checked
-against the sweep, post-hoc diagnostics), ``figures`` (matplotlib, imported lazily),
+against the sweep, post-hoc diagnostics), ``sensitivity`` (post hoc: F5 and F6 on the grid
+above the lowest electrode, ``sensitivity.csv``), ``figures`` (matplotlib, imported lazily),
 ``report`` and ``discussion`` (REPORT.md), ``cli`` (arguments, results files, sweeps,
 :func:`main`).
 """

@@ -20,6 +20,7 @@ from .figures import make_figures
 from .report import ReportData, report_text
 from .rules import evaluate
 from .runs import CheckedRuns, diagnostics
+from .sensitivity import run_sensitivity
 from .settings import (
     DEFAULT_OUT,
     FINE_RANGE,
@@ -173,7 +174,7 @@ def _settings(args):
 
 
 def _report_data(settings, head, wanted, paper, fine, out):
-    """Judge the findings, draw the figures into ``out`` and run the diagnostics."""
+    """Judge the findings, draw the figures, run the diagnostics and the sensitivity analysis."""
     runs = CheckedRuns(head, paper)
     return ReportData(
         settings=settings,
@@ -184,6 +185,7 @@ def _report_data(settings, head, wanted, paper, fine, out):
         findings=evaluate(paper),
         figures=make_figures(out, runs, settings, fine),
         diagnostics=diagnostics(runs, settings.seeds),
+        sensitivity=run_sensitivity(head, settings.seeds, out),
     )
 
 

@@ -17,6 +17,7 @@ from skf_ref.metrics import DYNAMIC_RANGE_DB as DETECTION_DB
 
 from .discussion import _discussion
 from .runs import electrode_floor
+from .sensitivity import sensitivity_section
 from .settings import (
     CORNERS,
     EXPONENTS,
@@ -318,6 +319,8 @@ class ReportData:
         From :func:`make_figures`.
     diagnostics : dict
         From :func:`diagnostics`.
+    sensitivity : Sensitivity or None
+        From :func:`run_sensitivity` (post hoc; its section follows the discussion).
     """
 
     settings: Settings
@@ -328,6 +331,13 @@ class ReportData:
     findings: list
     figures: dict
     diagnostics: dict
+    sensitivity: object = None
+
+
+def _sensitivity_lines(data):
+    if data.sensitivity is None:
+        return []
+    return sensitivity_section(data.sensitivity, data.findings)
 
 
 def report_text(data):
@@ -348,6 +358,7 @@ def report_text(data):
         RULES_TEXT,
         *_findings_section(data.findings),
         *_discussion(data),
+        *_sensitivity_lines(data),
         *_tables_section(data),
         *_figures_section(data.figures, data.settings),
     ]
