@@ -1,21 +1,58 @@
-"""The spectral path equals the dense reference on random small models (hypothesis)."""
+"""The spectral path equals the dense reference on random small models (hypothesis).
+
+The default run draws the same 150 models every time (tests/conftest.py); run
+``python -m pytest tests/test_spectral.py --hypothesis-profile=explore`` to draw thousands
+of new ones.
+"""
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
-from skf_ref import priors_from_snr, reconstruct
+from skf_ref import dense, priors_from_snr, reconstruct
 from skf_ref.spectral import SpectralModel
 
-# Both paths are exact; the dense one rounds through eigh and Cholesky solves of matrices
-# whose condition numbers stay below ~1e6 here. Measured worst case ~1e-12.
+# Both paths are exact algebra, so they differ by rounding only, and rounding grows with the
+# condition numbers kappa of S_t and P_{t|t-1}: the dense path solves with S and takes eigh
+# of P. On models with kappa <= 1e4 the worst difference found in 20 000 drawn models was
+# 2.4e-10, under EQUALITY_RTOL. Past that (PM-SNR high and EP-SNR low, so q >> theta0, or
+# 1e-6 V noise on a 1e-3 V/(A m) lead field) the dense path keeps about log10(eps kappa)
+# fewer digits: on 30 models with kappa > 1e7 a 40-digit mpmath run of the same equations
+# put the dense path 2e-11 to 1.2e-8 off and the spectral path at most 8e-11 off. A
+# hypothesis search steered toward large differences (30 000 models) reached 0.22 of this
+# bound: the larger of EQUALITY_RTOL and CONDITION_FACTOR eps kappa.
 EQUALITY_RTOL = 1e-8
+CONDITION_FACTOR = 1e3
 QUANTITIES = ("z", "x", "z_filtered", "x_filtered", "weights")
 
 
 def relative(a, b):
     return np.max(np.abs(a - b)) / np.max(np.abs(b))
+
+
+def noise_covariance(model):
+    m = model["L"].shape[0]
+    return model["noise_cov"] if "noise_cov" in model else model["noise_std"] ** 2 * np.eye(m)
+
+
+def condition_number(model):
+    """max over t of cond(S_t) and cond(P_{t|t-1}), from the dense path's covariances."""
+    L, R, eye = model["L"], noise_covariance(model), np.eye(model["L"].shape[1])
+    covariances = dense.kalman_filter(
+        L,
+        model["Y"],
+        R,
+        model["transition"] * eye,
+        model["q"] * eye,
+        model["theta0"] * eye,
+        model["exponent"],
+    )["P_pred"]
+    return max(max(np.linalg.cond(L @ P @ L.T + R), np.linalg.cond(P)) for P in covariances)
+
+
+def tolerance(model):
+    return max(EQUALITY_RTOL, CONDITION_FACTOR * np.finfo(float).eps * condition_number(model))
 
 
 @st.composite
@@ -56,14 +93,35 @@ def models(draw):
     )
 
 
-@settings(max_examples=150, deadline=None)
 @given(models())
 def test_spectral_equals_dense(model):
-    dense = reconstruct(**model, method="dense")
+    reference = reconstruct(**model, method="dense")
     spectral = reconstruct(**model, method="spectral")
+    rtol = tolerance(model)
     for name in QUANTITIES:
-        assert relative(getattr(spectral, name), getattr(dense, name)) <= EQUALITY_RTOL, name
-    assert np.isclose(spectral.log_likelihood, dense.log_likelihood, rtol=EQUALITY_RTOL)
+        assert relative(getattr(spectral, name), getattr(reference, name)) <= rtol, name
+    assert np.isclose(spectral.log_likelihood, reference.log_likelihood, rtol=rtol)
+
+
+def test_ill_conditioned_single_source_against_its_closed_form():
+    # The model a random CI run drew (data rounded to 8 digits): one source, 1e-6 V noise on
+    # a 1e-3 V/(A m) lead field and q = 1e4 theta0, so cond(S) ~ 6e6. With one source and one
+    # step, x = p l^T y / (p |l|^2 + sigma^2) and z = x / sqrt(p) (exponent 0), evaluated
+    # here without an ill-conditioned solve.
+    L = np.array([[-1.4813e-4], [-4.9891e-4], [8.2745e-4], [-4.5936e-4], [2.7896e-4]])
+    Y = np.array(
+        [[-2.76916428e-8], [2.63735233e-6], [1.22845738e-6], [1.60781447e-6], [4.10559135e-6]]
+    )
+    theta0, q, sigma = 4.0180994562020577e-4, 4.018099456202058, 1e-6
+    model = dict(L=L, Y=Y, noise_std=sigma, theta0=theta0, q=q, transition=1.0, exponent=0.0)
+    p = theta0 + q
+    x = p * (L[:, 0] @ Y[:, 0]) / (p * (L[:, 0] @ L[:, 0]) + sigma**2)
+    assert condition_number(model) > 1e6
+    spectral = reconstruct(**model, method="spectral")
+    assert relative(spectral.x, x) < 1e-14
+    assert relative(spectral.z, x / np.sqrt(p)) < 1e-14
+    for method in ("dense", "filterpy"):  # both solve with S: accurate to ~eps cond(S) only
+        assert relative(reconstruct(**model, method=method).x, x) <= tolerance(model), method
 
 
 def test_auto_takes_spectral_when_the_model_qualifies():
