@@ -10,18 +10,20 @@ from scipy import linalg
 __all__: list[str] = []
 
 
-def standardization_weights(w, exponent):
+def standardization_weights(w, exponent, out=None):
     """The diagonal of ``W_t^(alpha) = Diag(w_t)^(-alpha)``, eq. (7).
+
+    ``out`` (which may be ``w`` itself) receives the result.
 
     Examples
     --------
     >>> standardization_weights(np.array([0.25, 4.0]), 0.5).tolist()
     [2.0, 0.5]
     """
-    return w ** (-exponent)
+    return np.power(w, -exponent, out=out)
 
 
-def standardize(w, whitened, exponent, out=None):
+def standardize(w, whitened, exponent, out=None, overwrite_w=False):
     """Apply eqs. (7) and (6) to raw weights and whitened means.
 
     Parameters
@@ -33,7 +35,9 @@ def standardize(w, whitened, exponent, out=None):
     exponent : float
         The standardization exponent alpha.
     out : ndarray, optional
-        Where to write ``z``.
+        Where to write ``z`` (may be ``whitened`` itself).
+    overwrite_w : bool
+        Write the weights over ``w`` instead of a new array.
 
     Returns
     -------
@@ -49,7 +53,7 @@ def standardize(w, whitened, exponent, out=None):
     ([2.0, 1.0], [2.0, 2.0])
     """
     # W_t^(alpha) = Diag(w_t)^(-alpha)                                     (7)
-    weights = standardization_weights(w, exponent)
+    weights = standardization_weights(w, exponent, out=w if overwrite_w else None)
     # z = W_t^(alpha) P^{-1/2} x                                            (6)
     return weights, np.multiply(weights, whitened, out=out)
 

@@ -173,12 +173,16 @@ def _backward(z, gain, a, overwrite=False):
 
 
 def _by_columns(n, T, fill):
-    """A (T, n) array filled by ``fill(columns, view)`` in chunks of bounded size."""
+    """A (T, n) array filled by ``fill(columns, view, work)`` in chunks of bounded size.
+
+    ``work`` is a contiguous (T, chunk) scratch array, the same memory for every chunk.
+    """
     out = np.empty((T, n))
     step = max(1, _CHUNK_BYTES // (8 * T))
+    work = np.empty(T * min(step, n))
     for start in range(0, n, step):
         columns = slice(start, min(start + step, n))
-        fill(columns, out[:, columns])
+        fill(columns, out[:, columns], work[: T * (columns.stop - start)].reshape(T, -1))
     return out
 
 
@@ -225,8 +229,9 @@ class SpectralModel:
         """int : Numerical rank of the whitened lead field."""
         return len(self.s)
 
-    def _raw_weights(self, columns):
-        return self.omega @ self._V_squared[columns].T
+    def _raw_weights(self, columns, out):
+        # w_t = (V o V) omega_t                                             (7)
+        return np.matmul(self.omega, self._V_squared[columns].T, out=out)
 
     def _standardized(self, xi, exponent, project=False):
         """z (T, n) from singular coordinates; with ``project``, also ``z V`` (T, r)."""
@@ -234,17 +239,19 @@ class SpectralModel:
         u = xi / np.sqrt(self.p_pred)
         projection = np.zeros_like(u) if project else None
 
-        def fill(c, view):
-            chunk = standardize(self._raw_weights(c), u @ self.V[c].T, exponent)[1]
-            if project:  # while the chunk is contiguous and in cache
-                projection[:] += chunk @ self.V[c]
-            view[:] = chunk
+        def fill(c, view, work):
+            np.matmul(u, self.V[c].T, out=view)  # P_{t|t-1}^{-1/2} x_{t|t}
+            standardize(self._raw_weights(c, work), view, exponent, out=view, overwrite_w=True)
+            if project:  # while the chunk is in cache
+                projection[:] += view @ self.V[c]
 
         return _by_columns(self.n_sources, self.n_times, fill), projection
 
     def _expand(self, xi):
         return _by_columns(
-            self.n_sources, self.n_times, lambda c, view: np.matmul(xi, self.V[c].T, out=view)
+            self.n_sources,
+            self.n_times,
+            lambda c, view, work: np.matmul(xi, self.V[c].T, out=view),
         )
 
     def apply(self, Y, exponent, smoother):
@@ -300,8 +307,8 @@ class SpectralModel:
         return _by_columns(
             self.n_sources,
             self.n_times,
-            lambda c, view: np.copyto(
-                view, standardization_weights(self._raw_weights(c), exponent)
+            lambda c, view, work: standardization_weights(
+                self._raw_weights(c, view), exponent, out=view
             ),
         )
 
@@ -336,7 +343,8 @@ def _smooth_standardized(zf, zeta, V, gamma, beta, a):
     for t in range(len(zf) - 2, -1, -1):
         delta[t] = gamma[t] * delta[t + 1] + (gamma[t] - beta[t]) * (chi[t + 1] - a * zeta[t])
     step = max(1, _CHUNK_BYTES // (8 * V.shape[0]))
+    work = np.empty((min(step, len(h)), V.shape[0]))
     for start in range(0, len(h), step):
-        rows = slice(start, start + step)
-        h[rows] += delta[rows] @ V.T
+        rows = slice(start, min(start + step, len(h)))
+        h[rows] += np.matmul(delta[rows], V.T, out=work[: rows.stop - start])
     return h

@@ -35,3 +35,23 @@ def test_paths_past_the_memory_guard_are_reported_not_run(monkeypatch):
 def test_bad_arguments_exit_2(argv, capsys):
     assert bench.main(argv) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_the_make_row_times_make_inverse_operator(monkeypatch):
+    import mne.minimum_norm
+
+    calls = []
+    make = mne.minimum_norm.make_inverse_operator
+    monkeypatch.setattr(
+        mne.minimum_norm,
+        "make_inverse_operator",
+        lambda *args, **kwargs: calls.append(1) or make(*args, **kwargs),
+    )
+    problem = bench.make_problem(300, 32, 4)
+    for path, made_per_run in (("mne-sloreta", 0), ("mne-sloreta+make", 1)):
+        calls.clear()
+        run = bench._runner(problem, path)
+        made_before = len(calls)
+        run()
+        run()
+        assert len(calls) - made_before == 2 * made_per_run, path

@@ -110,11 +110,16 @@ def _mne_runner(problem, with_make):
         nfree=1000,
         verbose=False,
     )
-    inverse = make_inverse_operator(
-        evoked.info, head.fwd, cov, loose=1.0, depth=None, verbose=False
-    )
+
+    def make():
+        return make_inverse_operator(
+            evoked.info, head.fwd, cov, loose=1.0, depth=None, verbose=False
+        )
+
+    prepared = None if with_make else make()
 
     def run():
+        inverse = make() if with_make else prepared
         return apply_inverse(evoked, inverse, lambda2=1 / 9, method="sLORETA", verbose=False)
 
     return run
