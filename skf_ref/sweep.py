@@ -48,7 +48,7 @@ __all__ = ["run_sweep", "paper_grid", "check_grid", "run_group", "run_on_head", 
 AXES = ("snr_db", "ep_snr_db", "pm_snr_db", "exponent", "smoother", "seed")
 GROUP = ("snr_db", "ep_snr_db", "pm_snr_db")
 KEY = ("n_positions", "montage", *AXES)
-_PACKAGES = ("skf_ref", "numpy", "scipy", "filterpy", "mne")
+_PACKAGES = ("numpy", "scipy", "filterpy", "mne")
 
 
 def paper_grid(seeds=10):
@@ -141,7 +141,9 @@ def _number(axis, value):
 
 
 def _versions():
-    versions = {}
+    from . import __version__  # known also when run from a checkout, not installed
+
+    versions = {"skf_ref_version": __version__}
     for package in _PACKAGES:
         try:
             versions[f"{package}_version"] = metadata.version(package)
