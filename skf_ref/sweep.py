@@ -39,16 +39,26 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from . import __version__
 from ._io import atomic_path
 from ._validation import check_choice
 from .reconstruct import SMOOTHERS
 
-__all__ = ["run_sweep", "paper_grid", "check_grid", "run_group", "run_on_head", "AXES", "KEY"]
+__all__ = [
+    "run_sweep",
+    "paper_grid",
+    "check_grid",
+    "run_group",
+    "run_on_head",
+    "package_versions",
+    "AXES",
+    "KEY",
+]
 
 AXES = ("snr_db", "ep_snr_db", "pm_snr_db", "exponent", "smoother", "seed")
 GROUP = ("snr_db", "ep_snr_db", "pm_snr_db")
 KEY = ("n_positions", "montage", *AXES)
-_PACKAGES = ("numpy", "scipy", "filterpy", "mne")
+_PACKAGES = ("skf_ref", "numpy", "scipy", "filterpy", "mne")
 
 
 def paper_grid(seeds=10):
@@ -140,15 +150,31 @@ def _number(axis, value):
     return int(value) if axis == "seed" else float(value)
 
 
-def _versions():
-    from . import __version__  # known also when run from a checkout, not installed
+def package_versions(packages=_PACKAGES):
+    """Versions of the packages results depend on, by name.
 
-    versions = {"skf_ref_version": __version__}
-    for package in _PACKAGES:
+    skf_ref's own comes from the package itself, so it is known when run from a checkout.
+
+    Parameters
+    ----------
+    packages : sequence of str
+
+    Returns
+    -------
+    dict
+        ``{name: version}``; ``"not installed"`` for a missing package.
+
+    Examples
+    --------
+    >>> package_versions(("skf_ref", "no-such-package"))
+    {'skf_ref': '...', 'no-such-package': 'not installed'}
+    """
+    versions = {}
+    for package in packages:
         try:
-            versions[f"{package}_version"] = metadata.version(package)
+            versions[package] = __version__ if package == "skf_ref" else metadata.version(package)
         except metadata.PackageNotFoundError:
-            versions[f"{package}_version"] = "not installed"
+            versions[package] = "not installed"
     return versions
 
 
@@ -196,7 +222,8 @@ def run_on_head(head, snr_db, ep_snr_db, pm_snr_db, runs, n_positions=None):
     scenario = simulate.p20n20_scenario()
     L, T = head.leadfield, len(scenario.times)
     model = None
-    rows, versions = [], _versions()
+    rows = []
+    versions = {f"{name}_version": v for name, v in package_versions().items()}
     for seed in sorted({seed for _, _, seed in runs}):
         sim = simulate.simulate(head, scenario, snr_db, seed)
         if model is None:  # sigma depends on the noise level only, not on the seed

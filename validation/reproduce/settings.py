@@ -9,8 +9,9 @@ from __future__ import annotations
 import hashlib
 import platform
 from dataclasses import dataclass
-from importlib import metadata
 from pathlib import Path
+
+from skf_ref.sweep import package_versions
 
 __all__ = [
     "CORNERS",
@@ -135,15 +136,8 @@ def _source_digest():
 
 
 def _versions():
-    import skf_ref
-
-    versions = {"python": platform.python_version(), "skf_ref": skf_ref.__version__}
-    for package in ("numpy", "scipy", "pandas", "mne", "matplotlib", "joblib", "filterpy"):
-        try:
-            versions[package] = metadata.version(package)
-        except metadata.PackageNotFoundError:
-            versions[package] = "not installed"
-    return versions
+    packages = ("skf_ref", "numpy", "scipy", "pandas", "mne", "matplotlib", "joblib", "filterpy")
+    return {"python": platform.python_version(), **package_versions(packages)}
 
 
 def manifest(settings):
