@@ -1,9 +1,10 @@
 """The SKF and its smoothers in plain numpy: the readable statement of the algorithm.
 
-One loop, one equation a line, equation numbers of shared/SKF_SPEC.md (the paper's). This
-module is the oracle: every other path (the filterpy subclass, the spectral path) is
-compared against it. It stores every covariance, so it costs O(n^3) per step and
-O(T n^2) memory.
+One loop, one equation a line. Equation numbers are the paper's, with its section, since the
+paper reuses tags across sections: §2.2 eqs. (4)-(7) for the filter, §2.3 eq. (4) for the
+RTS smoother; docs/model.md states them all. This module is the oracle: every other path
+(the filterpy subclass, the spectral path) is compared against it. It stores every
+covariance, so it costs O(n^3) per step and O(T n^2) memory.
 
 Symbols: ``L`` lead field (m, n), ``R`` noise covariance (m, m), ``A`` transition (n, n),
 ``Q`` process covariance (n, n), ``P0`` initial covariance (n, n). Internally time runs
@@ -13,33 +14,38 @@ along the first axis, (T, n); the public result is (n, T).
 import numpy as np
 from scipy import linalg
 
-from ._standardize import inverse_sqrt, standardize
 from .result import Reconstruction
+from .standardization import inverse_sqrt, raw_weights, standardize
 
-__all__ = ["run", "kalman_filter", "smooth_standardized", "smooth_state"]
+__all__ = ["run", "kalman_filter", "rts"]
 
 _LOG_2PI = np.log(2 * np.pi)
 
 
 def _predict(x, P, A, Q):
-    # x_{t|t-1} = A x_{t-1|t-1}                                             (4)
+    # x_{t|t-1} = A x_{t-1|t-1}                                     §2.2 (4)
     x_pred = A @ x
-    # P_{t|t-1} = A P_{t-1|t-1} A^T + Q                                    (4)
+    # P_{t|t-1} = A P_{t-1|t-1} A^T + Q                             §2.2 (4)
     P_pred = A @ P @ A.T + Q
     return x_pred, (P_pred + P_pred.T) / 2
 
 
 def _update(x_pred, P_pred, y, L, R):
-    # S_t = L P_{t|t-1} L^T + R                                             (5)
+    # S_t = L P_{t|t-1} L^T + R                                     §2.2 (5)
     S = L @ P_pred @ L.T + R
-    S_chol = linalg.cho_factor(S, lower=True)
-    # K_t = P_{t|t-1} L^T S_t^{-1}   (a solve with S, never its inverse)   (5)
+    try:
+        S_chol = linalg.cho_factor(S, lower=True)
+    except linalg.LinAlgError as err:
+        raise linalg.LinAlgError(
+            f"S_t = L P_t|t-1 L^T + R is not positive definite ({err})"
+        ) from err
+    # K_t = P_{t|t-1} L^T S_t^{-1}   (a solve with S, never its inverse)   §2.2 (5)
     K = linalg.cho_solve(S_chol, L @ P_pred).T
     # e_t = y_t - L x_{t|t-1}
     e = y - L @ x_pred
-    # x_{t|t} = x_{t|t-1} + K_t e_t                                         (5)
+    # x_{t|t} = x_{t|t-1} + K_t e_t                                 §2.2 (5)
     x = x_pred + K @ e
-    # P_{t|t} = P_{t|t-1} - K_t S_t K_t^T                                   (5)
+    # P_{t|t} = P_{t|t-1} - K_t S_t K_t^T                           §2.2 (5)
     P = P_pred - K @ S @ K.T
     # log N(e_t; 0, S_t) = -(m log 2 pi + log det S_t + e^T S_t^{-1} e) / 2
     log_det = 2 * np.sum(np.log(np.diag(S_chol[0])))
@@ -47,14 +53,8 @@ def _update(x_pred, P_pred, y, L, R):
     return x, (P + P.T) / 2, K, S, log_likelihood
 
 
-def _raw_weights(P_pred_inv_sqrt, K, S):
-    # w_t = diag(P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2})           (7)
-    M = P_pred_inv_sqrt @ K
-    return np.einsum("ij,jk,ik->i", M, S, M)
-
-
 def kalman_filter(L, Y, R, A, Q, P0, exponent):
-    """Run the SKF forward pass (eqs. 4-7), keeping every mean and covariance.
+    """Run the SKF forward pass (§2.2 eqs. 4-7), keeping every mean and covariance.
 
     Parameters
     ----------
@@ -81,7 +81,7 @@ def kalman_filter(L, Y, R, A, Q, P0, exponent):
         x_pred, P_pred = _predict(x, P, A, Q)
         x, P, K, S, log_likelihood = _update(x_pred, P_pred, Y[:, t], L, R)
         P_pred_inv_sqrt = inverse_sqrt(P_pred)
-        w = _raw_weights(P_pred_inv_sqrt, K, S)
+        w = raw_weights(P_pred_inv_sqrt, K, S)
         weights, z = standardize(w, P_pred_inv_sqrt @ x, exponent)
         total += log_likelihood
         out["x_filt"][t], out["x_pred"][t], out["z"][t] = x, x_pred, z
@@ -91,19 +91,17 @@ def kalman_filter(L, Y, R, A, Q, P0, exponent):
     return out
 
 
-def _smoother_gain(P_filt, P_pred_next, A):
-    # G_t = P_{t|t} A^T P_{t+1|t}^{-1}  (a solve: P_{t+1|t} G_t^T = A P_{t|t})   (3)
-    return linalg.solve(P_pred_next, A @ P_filt, assume_a="pos").T
+def rts(sequence, P_filt, P_pred, A):
+    """The RTS backward pass of §2.3 eq. (4) over a filtered sequence.
 
-
-def smooth_standardized(z, P_filt, P_pred, A):
-    """The paper's RTS smoother over the standardized sequence (``"rts-standardized"``).
-
-    ``s_T = z_{T|T}``;  ``s_t = z_{t|t} + G_t (s_{t+1} - A z_{t|t})``.
+    ``s_T = m_T``;  ``s_t = m_t + G_t (s_{t+1} - A m_t)`` with the gain
+    ``G_t = P_{t|t} A^T P_{t+1|t}^{-1}``. Over the state ``m_t = x_{t|t}`` (``A x_{t|t}`` is
+    ``x_{t+1|t}``) this is the textbook smoother, ``"rts-state"``; over the standardized
+    ``m_t = z_{t|t}`` it is the paper's ``"rts-standardized"`` (docs/model.md §3).
 
     Parameters
     ----------
-    z : ndarray, shape (n_times, n_sources)
+    sequence : ndarray, shape (n_times, n_sources)
     P_filt, P_pred : ndarray, shape (n_times, n_sources, n_sources)
         ``P_{t|t}`` and ``P_{t|t-1}``; ``P_pred[t + 1]`` is ``P_{t+1|t}``.
     A : ndarray, shape (n_sources, n_sources)
@@ -112,46 +110,22 @@ def smooth_standardized(z, P_filt, P_pred, A):
     -------
     ndarray, shape (n_times, n_sources)
     """
-    s = z.copy()
-    for t in range(len(z) - 2, -1, -1):
-        G = _smoother_gain(P_filt[t], P_pred[t + 1], A)
-        # s_t = z_{t|t} + G_t (s_{t+1} - A z_{t|t})
-        s[t] = z[t] + G @ (s[t + 1] - A @ z[t])
+    s = sequence.copy()
+    for t in range(len(s) - 2, -1, -1):
+        # G_t = P_{t|t} A^T P_{t+1|t}^{-1}  (a solve: P_{t+1|t} G_t^T = A P_{t|t})  §2.3 (4)
+        G = linalg.solve(P_pred[t + 1], A @ P_filt[t], assume_a="pos").T
+        # s_t = m_t + G_t (s_{t+1} - A m_t)                         §2.3 (4)
+        s[t] = sequence[t] + G @ (s[t + 1] - A @ sequence[t])
     return s
 
 
-def smooth_state(x_filt, x_pred, P_filt, P_pred, A):
-    """The textbook RTS smoother on the state (``"rts-state"``), eq. (4) of the paper's §2.3.
-
-    ``x^s_T = x_{T|T}``;  ``x^s_t = x_{t|t} + G_t (x^s_{t+1} - x_{t+1|t})``.
-
-    Parameters
-    ----------
-    x_filt, x_pred : ndarray, shape (n_times, n_sources)
-    P_filt, P_pred : ndarray, shape (n_times, n_sources, n_sources)
-    A : ndarray, shape (n_sources, n_sources)
-
-    Returns
-    -------
-    ndarray, shape (n_times, n_sources)
-    """
-    xs = x_filt.copy()
-    for t in range(len(x_filt) - 2, -1, -1):
-        G = _smoother_gain(P_filt[t], P_pred[t + 1], A)
-        # x^s_t = x_{t|t} + G_t (x^s_{t+1} - x_{t+1|t})
-        xs[t] = x_filt[t] + G @ (xs[t + 1] - x_pred[t + 1])
-    return xs
-
-
-def run(L, Y, R, A, Q, P0, exponent, smoother):
+def run(model, Y, exponent, smoother):
     """Filter, optionally smooth, and package the result.
 
     Parameters
     ----------
-    L : ndarray, shape (n_channels, n_sources)
+    model : StateSpaceModel
     Y : ndarray, shape (n_channels, n_times)
-    R : ndarray, shape (n_channels, n_channels)
-    A, Q, P0 : ndarray, shape (n_sources, n_sources)
     exponent : float
     smoother : {None, "rts-standardized", "rts-state"}
 
@@ -159,22 +133,13 @@ def run(L, Y, R, A, Q, P0, exponent, smoother):
     -------
     Reconstruction
     """
-    f = kalman_filter(L, Y, R, A, Q, P0, exponent)
-    x, z = f["x_filt"], f["z"]
-    if smoother == "rts-standardized":
-        z = smooth_standardized(f["z"], f["P_filt"], f["P_pred"], A)
-    elif smoother == "rts-state":
-        x = smooth_state(f["x_filt"], f["x_pred"], f["P_filt"], f["P_pred"], A)
-        # z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t
-        z = standardize(f["w"], np.einsum("tij,tj->ti", f["P_pred_inv_sqrt"], x), exponent)[1]
-    return Reconstruction(
-        z=z.T,
-        x=x.T,
-        z_filtered=f["z"].T,
-        x_filtered=f["x_filt"].T,
-        weights=f["weights"].T,
-        log_likelihood=float(f["log_likelihood"]),
+    A, Q, P0 = (model.matrix(name) for name in ("transition", "q", "theta0"))
+    f = kalman_filter(model.L, Y, model.R, A, Q, P0, exponent)
+    return Reconstruction.from_filter(
+        f,
+        smoother,
+        lambda sequence: rts(sequence, f["P_filt"], f["P_pred"], A),
+        model=model,
         exponent=exponent,
-        smoother=smoother,
         method="dense",
     )

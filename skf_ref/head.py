@@ -1,4 +1,4 @@
-"""The spherical EEG head model with a volume source grid (shared/SKF_SPEC.md §5).
+"""The spherical EEG head model with a volume source grid (docs/model.md §5).
 
 Source grid. Positions ``origin + spacing * (k + u)`` for integer ``k`` inside the *source
 ball*, the brain compartment (innermost sphere layer) shrunk by ``MINDIST_MM`` = 5 mm, MNE's
@@ -20,24 +20,27 @@ from __future__ import annotations
 
 import copy
 import functools
-import numbers
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-__all__ = ["MINDIST_MM", "MIN_POSITIONS", "HeadModel", "make_head_model"]
+from .checks import InputError, check_int
+from .result import readonly
+
+__all__ = [
+    "MINDIST_MM",
+    "MIN_POSITIONS",
+    "HeadModel",
+    "check_montage",
+    "grid_size",
+    "make_head_model",
+]
 
 #: Margin (mm) between the source grid and the brain compartment's boundary (MNE's default).
 MINDIST_MM = 5.0
 #: Fewest grid positions a head model may have (the scenario may need more, see simulate).
 MIN_POSITIONS = 10
 _SFREQ_IRRELEVANT = 10000.0
-
-
-def _readonly(array):
-    array = np.array(array, dtype=float)
-    array.setflags(write=False)
-    return array
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,19 +128,11 @@ def make_head_model(n_positions=3000, montage="biosemi64", seed=None):
     >>> head.leadfield.shape == (64, 3 * head.n_positions)
     True
     """
-    if isinstance(n_positions, bool) or not isinstance(n_positions, numbers.Integral):
-        raise ValueError(f"n_positions must be an int, got {n_positions!r}")
-    if not isinstance(montage, str) or montage not in _builtin_montages():
-        raise ValueError(
-            f"montage must be the name of an MNE built-in montage such as 'biosemi64', "
-            f"'biosemi32', 'standard_1020' (see mne.channels.get_builtin_montages()), "
-            f"got {montage!r}"
-        )
-    if seed is not None and (
-        isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0
-    ):
-        raise ValueError(f"seed must be None or a non-negative int, got {seed!r}")
-    cached = _build_head(int(n_positions), montage, None if seed is None else int(seed))
+    n_positions = check_int("n_positions", n_positions, minimum=MIN_POSITIONS)
+    check_montage(montage)
+    if seed is not None:
+        seed = check_int("seed", seed, minimum=0)
+    cached = _build_head(n_positions, montage, seed)
     return replace(
         cached,
         info=cached.info.copy(),
@@ -145,6 +140,39 @@ def make_head_model(n_positions=3000, montage="biosemi64", seed=None):
         src=cached.src.copy(),
         fwd=cached.fwd.copy(),
     )
+
+
+def check_montage(montage):
+    """``montage`` if it names an MNE built-in montage, else an :class:`~skf_ref.InputError`."""
+    if not isinstance(montage, str) or montage not in _builtin_montages():
+        raise InputError(
+            f"montage must be the name of an MNE built-in montage such as 'biosemi64', "
+            f"'biosemi32', 'standard_1020' (see mne.channels.get_builtin_montages()), "
+            f"got {montage!r}"
+        )
+    return montage
+
+
+def grid_size(n_positions=3000, seed=None):
+    """The number of positions ``make_head_model(n_positions, seed=seed)`` holds, cheaply.
+
+    The lattice count nearest to the request (see the module docstring); no forward model
+    is computed.
+
+    Examples
+    --------
+    >>> grid_size(3000)
+    3016
+    """
+    n_positions = check_int("n_positions", n_positions, minimum=MIN_POSITIONS)
+    return len(_grid_cells(n_positions, _offset(seed))[0])
+
+
+def _offset(seed):
+    """The grid's offset within a cell: the centre, or drawn from the seed."""
+    if seed is None:
+        return np.full(3, 0.5)
+    return np.random.default_rng(check_int("seed", seed, minimum=0)).random(3)
 
 
 @functools.cache
@@ -192,13 +220,7 @@ def _build_head(n_positions, montage, seed):
     origin = np.asarray(sphere["r0"], dtype=float)
     brain_radius = min(layer["rad"] for layer in sphere["layers"])
     ball = brain_radius - MINDIST_MM * 1e-3
-    if n_positions < MIN_POSITIONS:
-        raise ValueError(f"n_positions must be at least {MIN_POSITIONS}, got {n_positions}")
-    if seed is None:
-        offset = np.full(3, 0.5)
-    else:
-        offset = np.random.default_rng(seed).random(3)
-    cells, radius = _grid_cells(n_positions, offset)
+    cells, radius = _grid_cells(n_positions, _offset(seed))
     spacing = ball / radius
     positions = origin + spacing * cells
     normals = np.tile([0.0, 0.0, 1.0], (len(positions), 1))
@@ -213,8 +235,8 @@ def _build_head(n_positions, montage, seed):
     if gain.shape != (len(info.ch_names), 3 * len(positions)) or not np.isfinite(gain).all():
         raise RuntimeError("MNE returned an unexpected or non-finite forward solution")
     return HeadModel(
-        leadfield=_readonly(gain - gain.mean(axis=0, keepdims=True)),
-        positions=_readonly(fwd["source_rr"]),
+        leadfield=readonly(gain - gain.mean(axis=0, keepdims=True)),
+        positions=readonly(np.array(fwd["source_rr"], dtype=float)),
         info=info,
         sphere=sphere,
         src=src,

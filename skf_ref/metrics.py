@@ -1,52 +1,99 @@
-"""Localization metrics for the P20/N20 scenario (shared/SKF_SPEC.md §6).
+"""Localization metrics for the P20/N20 scenario (docs/model.md §6).
 
 ``amplitude`` below is always a position amplitude ``a_t(p)``, shape (n_positions, n_times):
-the Euclidean norm of a position's three standardized components (see
-:func:`amplitude_from_components`). ``positions`` are grid positions, shape (n_positions, 3),
-and true positions shape (3,), both in metres; distances are reported in mm. The region of a
-source is the set of grid positions within ``radius_mm`` (15 mm) of its exact position; a
-region "is detected" at a time when its maximum is within ``dynamic_range_db`` (6 dB, with
-dB = 20 log10 of an amplitude ratio) of the global maximum at that time.
+the Euclidean norm of a position's three standardized components
+(:meth:`skf_ref.Reconstruction.amplitude`). ``positions`` are grid positions, shape
+(n_positions, 3), and true positions shape (3,), both in metres; distances are reported in
+mm. The region of a source is the set of grid positions within 15 mm of its exact position
+(:mod:`skf_ref.regions`); a region "is detected" at a time when its maximum is within
+``dynamic_range_db`` (6 dB, with dB = 20 log10 of an amplitude ratio) of the global maximum
+at that time.
 """
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 
-from ._validation import check_array
+from .checks import InputError, check_array, check_real, check_vector
 from .regions import (
     DYNAMIC_RANGE_DB,
-    REGION_RADIUS_MM,
-    _amplitude,
-    _index,
-    _point,
-    _positions,
-    amplitude_from_components,
     as_amplitude,
+    check_amplitude,
+    check_positions,
+    check_time_index,
     region_db,
-    region_mask,
     region_time_course,
 )
 
 __all__ = [
-    "DYNAMIC_RANGE_DB",
-    "REGION_RADIUS_MM",
-    "amplitude_from_components",
-    "as_amplitude",
+    "COLUMNS",
     "detected",
     "echo",
     "peak_localization_error",
-    "region_db",
-    "region_mask",
-    "region_time_course",
     "separation",
     "summarize",
     "time_course_correlation",
 ]
 
-# The region helpers live in skf_ref.regions and are re-exported here.
+#: Every column of :func:`summarize`: (name, meaning, unit, which way is better).
+COLUMNS = (
+    ("deep_error_mm", "distance from the deep source to the maximum at 1.5 ms", "mm", "lower"),
+    (
+        "superficial_error_mm",
+        "distance from the superficial source to the maximum at 2.5 ms",
+        "mm",
+        "lower",
+    ),
+    (
+        "deep_detected",
+        "deep region within 6 dB of the global maximum at 1.5 ms",
+        "bool",
+        "true",
+    ),
+    (
+        "superficial_detected",
+        "superficial region within 6 dB of the global maximum at 2.5 ms",
+        "bool",
+        "true",
+    ),
+    ("deep_region_db", "deep region's maximum re. the global maximum at 1.5 ms", "dB", "higher"),
+    (
+        "superficial_region_db",
+        "superficial region's maximum re. the global maximum at 2.5 ms",
+        "dB",
+        "higher",
+    ),
+    (
+        "echo",
+        "deep region's maximum at 2.5 ms over its maximum at 1.5 ms, minus the true ratio 0.25",
+        "ratio",
+        "closer to 0",
+    ),
+    (
+        "deep_corr",
+        "Pearson r of the deep region's maximum over time and |waveform|",
+        "r",
+        "higher",
+    ),
+    (
+        "superficial_corr",
+        "Pearson r of the superficial region's maximum over time and |waveform|",
+        "r",
+        "higher",
+    ),
+    (
+        "separation",
+        "deep detected at 1.5 ms, superficial at 2.5 ms, and deep not detected at 2.5 ms",
+        "bool",
+        "true",
+    ),
+    (
+        "deep_region_at_superficial_peak_db",
+        "deep region's maximum re. the global maximum at 2.5 ms (residual deep activity)",
+        "dB",
+        "lower",
+    ),
+)
 
 
 def peak_localization_error(amplitude, positions, true_position, peak_index):
@@ -72,10 +119,10 @@ def peak_localization_error(amplitude, positions, true_position, peak_index):
     >>> peak_localization_error(np.array([[1.0], [3.0]]), positions, np.zeros(3), 0)
     20.0
     """
-    positions = _positions(positions)
-    amplitude = _amplitude(amplitude, positions)
-    peak_index = _index(peak_index, "peak_index", amplitude.shape[1])
-    true_position = _point(true_position, "true_position")
+    positions = check_positions(positions)
+    amplitude = check_amplitude(amplitude, len(positions))
+    peak_index = check_time_index("peak_index", peak_index, amplitude.shape[1])
+    true_position = check_vector("true_position", true_position, 3)
     best = positions[np.argmax(amplitude[:, peak_index])]
     return float(np.linalg.norm(best - true_position) * 1e3)
 
@@ -107,8 +154,7 @@ def detected(amplitude, positions, true_position, index, dynamic_range_db=DYNAMI
     >>> detected(np.array([[0.4], [1.0]]), positions, np.zeros(3), 0)
     False
     """
-    if not (isinstance(dynamic_range_db, numbers.Real) and dynamic_range_db > 0):
-        raise ValueError(f"dynamic_range_db must be a positive number, got {dynamic_range_db!r}")
+    dynamic_range_db = check_real("dynamic_range_db", dynamic_range_db, positive=True)
     return bool(region_db(amplitude, positions, true_position, index) >= -dynamic_range_db)
 
 
@@ -140,8 +186,10 @@ def echo(amplitude, positions, deep_position, deep_peak_index, superficial_peak_
     0.25
     """
     course = region_time_course(amplitude, positions, deep_position)
-    deep_peak_index = _index(deep_peak_index, "deep_peak_index", course.size)
-    superficial_peak_index = _index(superficial_peak_index, "superficial_peak_index", course.size)
+    deep_peak_index = check_time_index("deep_peak_index", deep_peak_index, course.size)
+    superficial_peak_index = check_time_index(
+        "superficial_peak_index", superficial_peak_index, course.size
+    )
     if course[deep_peak_index] == 0:
         return float("nan")
     return float(course[superficial_peak_index] / course[deep_peak_index] - true_ratio)
@@ -175,7 +223,7 @@ def time_course_correlation(amplitude, positions, true_position, true_waveform):
     course = region_time_course(amplitude, positions, true_position)
     wave = np.abs(check_array("true_waveform", true_waveform, ("n_times",)))
     if wave.shape != course.shape:
-        raise ValueError(
+        raise InputError(
             f"true_waveform must have shape (n_times,) = ({course.size},), got {wave.shape}"
         )
     course, wave = course - course.mean(), wave - wave.mean()
@@ -258,28 +306,28 @@ def summarize(reconstruction, head, truth):
     >>> summary["deep_error_mm"], summary["echo"], summary["separation"]
     (0.0, 0.0, True)
     """
-    positions = _positions(head.positions)
+    positions = check_positions(head.positions, "head.positions")
     times = check_array("truth.times", truth.times, ("n_times",))
     true_positions = check_array("truth.positions", truth.positions, ("n_sources", 3))
     waveforms = check_array("truth.waveforms", truth.waveforms, ("n_sources", "n_times"))
     peak_times = check_array("truth.peak_times", truth.peak_times, ("n_sources",))
     if true_positions.shape != (2, 3) or waveforms.shape != (2, times.size):
-        raise ValueError(
+        raise InputError(
             f"truth must hold 2 sources: positions (2, 3) and waveforms (2, {times.size}), "
             f"got {true_positions.shape} and {waveforms.shape}"
         )
     if peak_times.shape != (2,):
-        raise ValueError(f"truth.peak_times must have shape (2,), got {peak_times.shape}")
-    amplitude = _amplitude(as_amplitude(reconstruction, positions.shape[0]), positions)
+        raise InputError(f"truth.peak_times must have shape (2,), got {peak_times.shape}")
+    amplitude = check_amplitude(as_amplitude(reconstruction, len(positions)), len(positions))
     if amplitude.shape[1] != times.size:
-        raise ValueError(
+        raise InputError(
             f"reconstruction amplitude must have shape (n_positions, n_times) = "
             f"({positions.shape[0]}, {times.size}), got shape {amplitude.shape}"
         )
     (i_deep, i_sup) = (int(np.abs(times - t).argmin()) for t in peak_times)
     (deep, sup), (w_deep, w_sup) = true_positions, waveforms
     if w_deep[i_deep] == 0:
-        raise ValueError("truth.waveforms: the deep waveform is zero at its peak time")
+        raise InputError("truth.waveforms: the deep waveform is zero at its peak time")
     args = (amplitude, positions)
     deep_db = region_db(*args, deep, i_deep)
     sup_db = region_db(*args, sup, i_sup)

@@ -4,7 +4,7 @@ The only module that imports matplotlib, and only inside functions. Figures are 
 :class:`matplotlib.figure.Figure` directly, not ``pyplot``: nothing is registered with a GUI
 backend, sweeps need not close figures, notebooks display the returned figure, and
 ``path=...`` (or ``fig.savefig``) writes a file. ``reconstruction`` arguments are anything
-:func:`skf_ref.metrics.as_amplitude` accepts: an object with ``amplitude(3)`` (e.g.
+:func:`skf_ref.regions.as_amplitude` accepts: an object with ``amplitude(3)`` (e.g.
 ``skf_ref.Reconstruction``) or an amplitude array of shape (n_positions, n_times). ``head``
 needs ``positions`` (n_positions, 3) in metres (and, for projections, ``spacing`` in metres,
 else it is inferred); ``truth`` needs ``positions`` (2, 3) m, ``waveforms`` (2, n_times) and
@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .metrics import DYNAMIC_RANGE_DB, as_amplitude, region_time_course
+from .checks import InputError, check_instance, check_real
+from .regions import DYNAMIC_RANGE_DB, as_amplitude, region_time_course
 
 __all__ = [
     "plot_average_reconstruction",
@@ -47,7 +48,7 @@ def _draw_time_courses(ax, reconstruction, head, truth):
     amplitude = as_amplitude(reconstruction, positions.shape[0])
     times_ms = np.asarray(truth.times, dtype=float) * 1e3
     if amplitude.shape[1] != times_ms.size:
-        raise ValueError(
+        raise InputError(
             f"reconstruction amplitude must have shape (n_positions, n_times) = "
             f"({positions.shape[0]}, {times_ms.size}), got shape {amplitude.shape}"
         )
@@ -134,17 +135,18 @@ def plot_prior_grid(reconstructions, head, truth, title=None, path=None):
     -------
     fig : matplotlib.figure.Figure
     """
-    if not isinstance(reconstructions, dict) or not reconstructions:
-        raise ValueError("reconstructions must be a non-empty dict {(ep, pm): reconstruction}")
+    check_instance("reconstructions", reconstructions, dict, "a dict {(ep, pm): reconstruction}")
+    if not reconstructions:
+        raise InputError("reconstructions must be a non-empty dict {(ep, pm): reconstruction}")
     if not all(isinstance(key, tuple) and len(key) == 2 for key in reconstructions):
-        raise ValueError(
+        raise InputError(
             f"reconstructions keys must be (ep, pm) pairs, got {list(reconstructions)}"
         )
     eps = sorted({ep for ep, _ in reconstructions})
     pms = sorted({pm for _, pm in reconstructions})
     missing = [(ep, pm) for pm in pms for ep in eps if (ep, pm) not in reconstructions]
     if missing:
-        raise ValueError(f"reconstructions must fill the EP x PM grid; missing {missing}")
+        raise InputError(f"reconstructions must fill the EP x PM grid; missing {missing}")
     panels = {
         (row, col): (reconstructions[ep, pm], f"EP {ep:g}, PM {pm:g}")
         for row, pm in enumerate(pms)
@@ -169,8 +171,9 @@ def plot_exponent_comparison(reconstructions, head, truth, title=None, path=None
     -------
     fig : matplotlib.figure.Figure
     """
-    if not isinstance(reconstructions, dict) or not reconstructions:
-        raise ValueError("reconstructions must be a non-empty dict {exponent: reconstruction}")
+    check_instance("reconstructions", reconstructions, dict, "a dict {exponent: reconstruction}")
+    if not reconstructions:
+        raise InputError("reconstructions must be a non-empty dict {exponent: reconstruction}")
     panels = {
         (0, col): (reconstructions[alpha], f"exponent {alpha:g}")
         for col, alpha in enumerate(sorted(reconstructions))
@@ -188,13 +191,14 @@ def _lattice(head):
     cells = (positions - positions.min(axis=0)) / spacing
     index = np.rint(cells).astype(int)
     if np.abs(cells - index).max() > 1e-3:
-        raise ValueError("head.positions must lie on a regular cubic grid to be projected")
+        raise InputError("head.positions must lie on a regular cubic grid to be projected")
     return index, spacing
 
 
 # projections: (name, axis projected away, horizontal axis, vertical axis)
 _VIEWS = (("sagittal", 0, 1, 2), ("coronal", 1, 0, 2), ("axial", 2, 0, 1))
-_AXIS_NAMES = "xyz"
+# head coordinates (MNE): x towards the right ear, y towards the nasion, z up
+_AXIS_LABELS = ("x (mm), L \u2192 R", "y (mm), P \u2192 A", "z (mm), I \u2192 S")
 
 
 def plot_average_reconstruction(
@@ -209,7 +213,8 @@ def plot_average_reconstruction(
     """Maximum-intensity projections of the amplitude at given times, in dB re. the max.
 
     One row per time, columns sagittal (y-z), coronal (x-z) and axial (x-y) maximum-
-    intensity projections in head coordinates (mm). Colours span ``max - dynamic_range_db``
+    intensity projections (MIP) in MNE's head coordinates (mm; x towards the right ear,
+    y towards the nasion, z up). Colours span ``max - dynamic_range_db``
     to the maximum at that time; grid positions below the range are light grey, outside
     the grid white. True positions: deep green, superficial red circles. Pass an averaged
     amplitude (e.g. over noise realizations) to plot an average reconstruction.
@@ -238,7 +243,7 @@ def plot_average_reconstruction(
     amplitude = as_amplitude(reconstruction, positions.shape[0])
     times = np.asarray(truth.times, dtype=float)
     if amplitude.shape[1] != times.size:
-        raise ValueError(
+        raise InputError(
             f"reconstruction amplitude must have shape (n_positions, n_times) = "
             f"({positions.shape[0]}, {times.size}), got shape {amplitude.shape}"
         )
@@ -249,12 +254,11 @@ def plot_average_reconstruction(
         or not times_ms.size
         or (np.abs(times_ms[:, None] - times[None, :] * 1e3).min(axis=1) > half_step + 1e-9).any()
     ):
-        raise ValueError(
+        raise InputError(
             f"times_ms must be times within {times[0] * 1e3:g}..{times[-1] * 1e3:g} ms, "
             f"got {times_ms.tolist()}"
         )
-    if not dynamic_range_db > 0:
-        raise ValueError(f"dynamic_range_db must be positive, got {dynamic_range_db!r}")
+    dynamic_range_db = check_real("dynamic_range_db", dynamic_range_db, positive=True)
     index, spacing = _lattice(head)
     corner_mm = positions.min(axis=0) * 1e3
     cmap = mpl.colormaps["Blues"].resampled(256)
@@ -297,10 +301,10 @@ def plot_average_reconstruction(
                     mew=2.0,
                     label=f"{label} (true)",
                 )
-            ax.set_title(f"{name}, {times[k] * 1e3:g} ms")
-            ax.set_xlabel(f"{_AXIS_NAMES[horiz]} (mm)")
-            ax.set_ylabel(f"{_AXIS_NAMES[vert]} (mm)")
-    fig.colorbar(image, ax=axes, label="dB re. max", extend="min", shrink=0.8)
+            ax.set_title(f"{name} MIP, {times[k] * 1e3:g} ms")
+            ax.set_xlabel(_AXIS_LABELS[horiz])
+            ax.set_ylabel(_AXIS_LABELS[vert])
+    fig.colorbar(image, ax=axes, label="dB re. maximum at that time", extend="min", shrink=0.8)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize="small")
     if title is not None:

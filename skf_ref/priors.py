@@ -11,7 +11,7 @@
 
 import numpy as np
 
-from ._validation import check_choice, check_int, check_leadfield, check_real
+from .checks import check_choice, check_int, check_leadfield, check_real
 
 __all__ = ["prior_variance", "evolution_variance", "lead_field_amplitude", "priors_from_snr"]
 

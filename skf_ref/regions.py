@@ -1,24 +1,25 @@
-"""Positions, amplitudes and source regions: the building blocks of :mod:`skf_ref.metrics`.
+"""Source regions of the P20/N20 study, and the checks of positions and amplitudes.
 
 ``amplitude`` is a position amplitude ``a_t(p)``, shape (n_positions, n_times): the
-Euclidean norm of a position's standardized components. ``positions`` are grid positions,
-shape (n_positions, 3), and true positions shape (3,), both in metres. The region of a
-source is the set of grid positions within ``radius_mm`` (15 mm) of its exact position.
+Euclidean norm of a position's standardized components
+(:func:`skf_ref.result.amplitude_from_components`). ``positions`` are grid positions, shape
+(n_positions, 3), and true positions shape (3,), both in metres. The region of a source is the
+set of grid positions within ``radius_mm`` (15 mm) of its exact position (docs/model.md §6).
 """
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 
-from ._validation import check_array
+from .checks import InputError, check_array, check_int, check_real, check_vector
 
 __all__ = [
     "DYNAMIC_RANGE_DB",
     "REGION_RADIUS_MM",
-    "amplitude_from_components",
     "as_amplitude",
+    "check_amplitude",
+    "check_positions",
+    "check_time_index",
     "region_db",
     "region_mask",
     "region_time_course",
@@ -30,77 +31,37 @@ REGION_RADIUS_MM = 15.0
 DYNAMIC_RANGE_DB = 6.0
 
 
-def _positions(positions):
-    pos = check_array("positions", positions, ("n_positions", 3))
-    if pos.shape[1] != 3 or pos.shape[0] == 0:
-        raise ValueError(f"positions must have shape (n_positions, 3), got shape {pos.shape}")
+def check_positions(positions, name="positions"):
+    """Grid positions: a finite (n_positions, 3) array with at least one row."""
+    pos = check_array(name, positions, ("n_positions", 3))
+    if pos.shape[0] == 0:
+        raise InputError(f"{name} must hold at least one position, got shape {pos.shape}")
     return pos
 
 
-def _point(value, name):
-    point = check_array(name, value, (3,))
-    if point.shape != (3,):
-        raise ValueError(f"{name} must have shape (3,), got shape {point.shape}")
-    return point
-
-
-def _amplitude(amplitude, positions):
-    amp = check_array("amplitude", amplitude, ("n_positions", "n_times"))
-    if amp.shape[0] != positions.shape[0] or amp.shape[1] == 0:
-        raise ValueError(
-            f"amplitude must have shape (n_positions, n_times) = ({positions.shape[0]}, "
-            f"n_times), got shape {amp.shape}"
-        )
+def check_amplitude(amplitude, n_positions, name="amplitude"):
+    """A non-negative (n_positions, n_times) amplitude with at least one time."""
+    amp = check_array(name, amplitude, (n_positions, "n_times"))
+    if amp.shape[1] == 0:
+        raise InputError(f"{name} must hold at least one time, got shape {amp.shape}")
     if (amp < 0).any():
-        raise ValueError("amplitude must be non-negative (a norm per position)")
+        raise InputError(f"{name} must be non-negative (a norm per position)")
     return amp
 
 
-def _index(index, name, n_times):
-    if isinstance(index, bool) or not isinstance(index, numbers.Integral):
-        raise ValueError(f"{name} must be an int, got {index!r}")
-    if not 0 <= index < n_times:
-        raise ValueError(f"{name} must be in [0, {n_times}), got {index}")
-    return int(index)
+def check_time_index(name, index, n_times):
+    """A time index in ``[0, n_times)``."""
+    return check_int(name, index, minimum=0, maximum=n_times - 1)
 
 
 def _region(positions, true_position, radius_mm, name="true_position"):
     mask = region_mask(positions, true_position, radius_mm)
     if not mask.any():
-        raise ValueError(
+        raise InputError(
             f"positions: no grid position within {radius_mm:g} mm of {name}; the grid is "
             f"too coarse"
         )
     return mask
-
-
-def amplitude_from_components(z, n_components=3):
-    """Position amplitude: the norm of each position's consecutive components.
-
-    Parameters
-    ----------
-    z : ndarray, shape (n_components * n_positions, n_times)
-        Standardized source estimate, MNE column order (x, y, z of position 0, then 1, ...).
-    n_components : int
-        Components per position (3 for free orientation).
-
-    Returns
-    -------
-    amplitude : ndarray, shape (n_positions, n_times)
-
-    Examples
-    --------
-    >>> amplitude_from_components(np.array([[3.0], [4.0], [0.0], [0.0], [0.0], [1.0]]))
-    array([[5.],
-           [1.]])
-    """
-    z = check_array("z", z, ("n_components * n_positions", "n_times"))
-    if z.shape[0] % n_components:
-        raise ValueError(
-            f"z must have shape (n_components * n_positions, n_times) with n_components="
-            f"{n_components}, got shape {z.shape}"
-        )
-    return np.linalg.norm(z.reshape(-1, n_components, z.shape[1]), axis=1)
 
 
 def as_amplitude(reconstruction, n_positions):
@@ -127,10 +88,10 @@ def as_amplitude(reconstruction, n_positions):
         reconstruction = reconstruction.amplitude(3)
     amp = check_array("reconstruction amplitude", reconstruction, ("n_positions", "n_times"))
     if amp.shape[0] != n_positions:
-        raise ValueError(
+        raise InputError(
             f"reconstruction amplitude must have shape (n_positions, n_times) with "
             f"n_positions={n_positions}, got shape {amp.shape} (pass an amplitude, not the "
-            f"standardized components; see amplitude_from_components)"
+            f"standardized components; see skf_ref.result.amplitude_from_components)"
         )
     return amp
 
@@ -156,10 +117,9 @@ def region_mask(positions, true_position, radius_mm=REGION_RADIUS_MM):
     >>> region_mask(np.array([[0, 0, 0], [0.01, 0, 0], [0.02, 0, 0]]), np.zeros(3))
     array([ True,  True, False])
     """
-    positions = _positions(positions)
-    true_position = _point(true_position, "true_position")
-    if not (isinstance(radius_mm, numbers.Real) and radius_mm > 0):
-        raise ValueError(f"radius_mm must be a positive number, got {radius_mm!r}")
+    positions = check_positions(positions)
+    true_position = check_vector("true_position", true_position, 3)
+    radius_mm = check_real("radius_mm", radius_mm, positive=True)
     return np.linalg.norm(positions - true_position, axis=1) * 1e3 <= radius_mm
 
 
@@ -186,8 +146,8 @@ def region_time_course(amplitude, positions, true_position, radius_mm=REGION_RAD
     ...                    np.array([[0.0, 0, 0], [0.1, 0, 0]]), np.zeros(3))
     array([1., 2.])
     """
-    positions = _positions(positions)
-    amplitude = _amplitude(amplitude, positions)
+    positions = check_positions(positions)
+    amplitude = check_amplitude(amplitude, len(positions))
     return amplitude[_region(positions, true_position, radius_mm)].max(axis=0)
 
 
@@ -219,9 +179,9 @@ def region_db(amplitude, positions, true_position, index, radius_mm=REGION_RADIU
     ...           np.zeros(3), 0)
     -6.020599913279624
     """
-    positions = _positions(positions)
-    amplitude = _amplitude(amplitude, positions)
-    index = _index(index, "index", amplitude.shape[1])
+    positions = check_positions(positions)
+    amplitude = check_amplitude(amplitude, len(positions))
+    index = check_time_index("index", index, amplitude.shape[1])
     region = amplitude[_region(positions, true_position, radius_mm), index].max()
     if region == 0:
         return float("-inf")

@@ -1,15 +1,72 @@
-"""The result type every computational path returns."""
+"""The result type every computational path returns, and the per-position amplitude."""
 
-__all__ = ["Reconstruction"]
+import numpy as np
+
+from .checks import InputError, check_array, check_int
+from .standardization import restandardize
+
+__all__ = ["Reconstruction", "amplitude_from_components", "readonly"]
+
+
+def amplitude_from_components(z, n_components=3):
+    """Position amplitude: the Euclidean norm of each position's consecutive components.
+
+    Parameters
+    ----------
+    z : ndarray, shape (n_components * n_positions, n_times)
+        Standardized source estimate, MNE column order (x, y, z of position 0, then 1, ...).
+    n_components : {1, 2, 3}
+        Components per position (3 for free orientation, 1 for fixed).
+
+    Returns
+    -------
+    amplitude : ndarray, shape (n_positions, n_times)
+
+    Examples
+    --------
+    >>> amplitude_from_components(np.array([[3.0], [4.0], [0.0], [0.0], [0.0], [1.0]]))
+    array([[5.],
+           [1.]])
+    """
+    n_components = check_int("n_components", n_components, minimum=1, maximum=3)
+    z = check_array("z", z, ("n_components * n_positions", "n_times"))
+    if z.shape[0] % n_components:
+        raise InputError(
+            f"z must have shape (n_components * n_positions, n_times) with n_components="
+            f"{n_components}, got shape {z.shape}"
+        )
+    if n_components == 1:
+        return np.abs(z)
+    return np.linalg.norm(z.reshape(-1, n_components, z.shape[1]), axis=1)
+
+
+def readonly(value):
+    """``value`` as a float array that cannot be written through (a view, not a copy).
+
+    Examples
+    --------
+    >>> readonly([1, 2]).flags.writeable
+    False
+    """
+    array = np.asarray(value, dtype=float)
+    if array.flags.writeable:
+        array = array.view()
+        array.flags.writeable = False
+    return array
+
+
+def _setting(value):
+    return float(value) if np.ndim(value) == 0 else "matrix"
 
 
 class Reconstruction:
-    """A standardized Kalman filter reconstruction.
+    """A standardized Kalman filter reconstruction and the settings that produced it.
 
-    All source-space arrays have shape (n_sources, n_times), MNE's layout. A path may hand
-    any of them over as a zero-argument function instead of an array: it is then computed on
-    first access and kept (the spectral path does this, so that asking for ``z`` at 150 000
-    sources does not also materialize four other arrays of the same size).
+    All source-space arrays have shape (n_sources, n_times), MNE's layout, and are
+    read-only. A path may hand any of them over as a zero-argument function instead of an
+    array: it is then computed on first access and kept (the spectral path does this, so
+    that asking for ``z`` at 150 000 sources does not also materialize four other arrays
+    of the same size). Printing a reconstruction never computes one.
 
     Attributes
     ----------
@@ -19,38 +76,106 @@ class Reconstruction:
         Unstandardized means: the smoothed state ``x^s_t`` for ``"rts-state"``, the
         filtered means ``x_{t|t}`` otherwise.
     z_filtered : ndarray, shape (n_sources, n_times)
-        ``z_{t|t}`` of eq. (6).
+        ``z_{t|t}`` of §2.2 eq. (6).
     x_filtered : ndarray, shape (n_sources, n_times)
-        ``x_{t|t}`` of eq. (5).
+        ``x_{t|t}`` of §2.2 eq. (5).
     weights : ndarray, shape (n_sources, n_times)
-        Diagonal of ``W_t^(alpha)`` (7) at each step.
+        Diagonal of ``W_t^(alpha)``, §2.2 eq. (7), at each step.
     log_likelihood : float
         Innovation log-likelihood ``sum_t log N(y_t - L x_{t|t-1}; 0, S_t)``.
+    n_sources, n_times : int
+        The shape of every array.
     exponent : float
         The standardization exponent alpha.
     smoother : str or None
         ``None``, ``"rts-standardized"`` or ``"rts-state"``.
     method : str
         The path that computed it: ``"filterpy"``, ``"dense"`` or ``"spectral"``.
+    theta0, q, transition : float or ndarray, shape (n_sources, n_sources)
+        The model's ``P_0``, ``Q`` and ``A`` as given (a scalar ``c`` means ``c I``).
     """
 
     _ARRAYS = ("z", "x", "z_filtered", "x_filtered", "weights")
 
     def __init__(
-        self, *, z, x, z_filtered, x_filtered, weights, log_likelihood, exponent, smoother, method
+        self,
+        *,
+        z,
+        x,
+        z_filtered,
+        x_filtered,
+        weights,
+        log_likelihood,
+        n_sources,
+        n_times,
+        exponent,
+        smoother,
+        method,
+        theta0,
+        q,
+        transition=1.0,
     ):
         self._arrays = dict(
             z=z, x=x, z_filtered=z_filtered, x_filtered=x_filtered, weights=weights
         )
-        self.log_likelihood = log_likelihood
-        self.exponent = exponent
-        self.smoother = smoother
-        self.method = method
+        self.log_likelihood = float(log_likelihood)
+        self.n_sources, self.n_times = int(n_sources), int(n_times)
+        self.exponent, self.smoother, self.method = float(exponent), smoother, method
+        self.theta0, self.q, self.transition = theta0, q, transition
+
+    @classmethod
+    def from_filter(cls, filtered, smoother, rts, *, model, exponent, method):
+        """Smooth and package the output of a covariance-storing path (dense, filterpy).
+
+        Parameters
+        ----------
+        filtered : dict
+            Time-major filter output: ``x_filt``, ``z``, raw weights ``w``, ``weights``
+            (n_times, n_sources); ``P_pred_inv_sqrt`` (n_times, n_sources, n_sources);
+            ``log_likelihood``.
+        smoother : {None, "rts-standardized", "rts-state"}
+        rts : callable
+            The path's RTS backward pass: a (n_times, n_sources) sequence ``m_t`` to
+            ``s_t = m_t + G_t (s_{t+1} - A m_t)``, ``s_T = m_T``.
+        model : StateSpaceModel
+        exponent : float
+        method : str
+
+        Returns
+        -------
+        Reconstruction
+        """
+        f = filtered
+        x, z = f["x_filt"], f["z"]
+        if smoother == "rts-standardized":
+            # the paper's smoother: RTS over the standardized sequence (docs/model.md §3)
+            z = rts(f["z"])
+        elif smoother == "rts-state":
+            # textbook RTS on the state, then z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t
+            x = rts(f["x_filt"])
+            z = restandardize(f["w"], f["P_pred_inv_sqrt"], x, exponent)
+        return cls(
+            z=z.T,
+            x=x.T,
+            z_filtered=f["z"].T,
+            x_filtered=f["x_filt"].T,
+            weights=f["weights"].T,
+            log_likelihood=f["log_likelihood"],
+            n_sources=model.n_sources,
+            n_times=len(f["z"]),
+            exponent=exponent,
+            smoother=smoother,
+            method=method,
+            theta0=model.theta0,
+            q=model.q,
+            transition=model.transition,
+        )
 
     def _array(self, name):
         value = self._arrays[name]
         if callable(value):
-            value = self._arrays[name] = value()
+            value = value()
+        value = self._arrays[name] = readonly(value)
         return value
 
     z = property(lambda self: self._array("z"), doc="Standardized (smoothed) estimate.")
@@ -59,34 +184,36 @@ class Reconstruction:
     x_filtered = property(lambda self: self._array("x_filtered"), doc="Filtered x_{t|t}.")
     weights = property(lambda self: self._array("weights"), doc="Diagonal of W_t^(alpha).")
 
-    def __repr__(self):
-        return (
-            f"<Reconstruction | {self.n_sources} sources x {self.n_times} steps, "
-            f"method={self.method!r}, exponent={self.exponent}, smoother={self.smoother!r}>"
-        )
-
     @property
     def shape(self):
-        """(n_sources, n_times), read off an array already computed where there is one."""
-        ready = [a for a in self._arrays.values() if not callable(a)]
-        return (ready[0] if ready else self.z).shape
+        """tuple : (n_sources, n_times)."""
+        return (self.n_sources, self.n_times)
 
     @property
-    def n_sources(self):
-        """Number of state components (columns of the lead field)."""
-        return self.shape[0]
+    def settings(self):
+        """dict : What produced this result; matrices are recorded as ``"matrix"``."""
+        return {
+            "method": self.method,
+            "exponent": self.exponent,
+            "smoother": self.smoother,
+            "theta0": _setting(self.theta0),
+            "q": _setting(self.q),
+            "transition": _setting(self.transition),
+        }
 
-    @property
-    def n_times(self):
-        """Number of time steps."""
-        return self.shape[1]
+    def __repr__(self):
+        smoother = self.smoother or "filter only"
+        return (
+            f"<Reconstruction | {self.n_sources} sources x {self.n_times} steps, "
+            f"{self.method}, exponent {self.exponent:g}, {smoother}>"
+        )
 
     def amplitude(self, components=1, *, filtered=False):
         """Per-position amplitude: the Euclidean norm of each position's components of z.
 
         Parameters
         ----------
-        components : int
+        components : {1, 2, 3}
             Columns per position: 3 for free orientation (MNE's x, y, z order), 1 for fixed.
         filtered : bool
             Use ``z_filtered`` instead of ``z``.
@@ -97,18 +224,16 @@ class Reconstruction:
 
         Examples
         --------
-        >>> import numpy as np
         >>> z = np.array([[3.0], [4.0], [0.0], [1.0], [0.0], [0.0]])
         >>> r = Reconstruction(z=z, x=z, z_filtered=z, x_filtered=z, weights=z,
-        ...                    log_likelihood=0.0, exponent=0.5, smoother=None, method="dense")
+        ...                    log_likelihood=0.0, n_sources=6, n_times=1, exponent=0.5,
+        ...                    smoother=None, method="dense", theta0=1.0, q=0.0)
         >>> r.amplitude(3).ravel().tolist()
         [5.0, 1.0]
         """
-        if components not in (1, 2, 3) or self.n_sources % components:
-            raise ValueError(
-                f"components must be 1, 2 or 3 and divide n_sources={self.n_sources}, "
-                f"got {components!r}"
+        components = check_int("components", components, minimum=1, maximum=3)
+        if self.n_sources % components:
+            raise InputError(
+                f"components must divide n_sources={self.n_sources}, got {components!r}"
             )
-        from .metrics import amplitude_from_components
-
         return amplitude_from_components(self.z_filtered if filtered else self.z, components)

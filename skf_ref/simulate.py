@@ -1,4 +1,4 @@
-"""Spherical head model, the P20/N20 scenario and simulated EEG (shared/SKF_SPEC.md §5).
+"""The P20/N20 scenario and simulated EEG (docs/model.md §5).
 
 Three steps, each a public function returning a frozen dataclass:
 
@@ -10,31 +10,22 @@ Three steps, each a public function returning a frozen dataclass:
 - :func:`simulate` -> :class:`Simulation`: data from the exact dipoles' own forward field
   (not grid columns) plus white Gaussian noise at a peak SNR.
 
-The head model lives in :mod:`skf_ref.head`; ``make_head_model`` and ``HeadModel`` are
-re-exported here.
+The head model lives in :mod:`skf_ref.head`. ``make_head_model`` and ``HeadModel`` can
+still be reached from here, where the first release put them.
 """
 
 from __future__ import annotations
 
-import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .head import MIN_POSITIONS, MINDIST_MM, HeadModel, _readonly, make_head_model
-from .metrics import REGION_RADIUS_MM, region_mask
+from .checks import InputError, check_instance, check_int, check_real, check_vector
+from .head import HeadModel, make_head_model  # noqa: F401  (make_head_model: issue-4 name)
+from .regions import REGION_RADIUS_MM, region_mask
+from .result import readonly
 
-__all__ = [
-    "MINDIST_MM",
-    "MIN_POSITIONS",
-    "HeadModel",
-    "Scenario",
-    "Simulation",
-    "Truth",
-    "make_head_model",
-    "p20n20_scenario",
-    "simulate",
-]
+__all__ = ["Scenario", "Simulation", "Truth", "p20n20_scenario", "simulate"]
 
 _PULSE_EDGE_TOL = 1e-9  # relative phase treated as the (zero) edge of a Hann pulse
 
@@ -128,45 +119,21 @@ class Scenario:
             if tangential:
                 radial = pos - origin
                 if np.linalg.norm(radial) < 1e-9:
-                    raise ValueError(f"the {name} source sits at the sphere centre: no tangent")
+                    raise InputError(f"the {name} source sits at the sphere centre: no tangent")
                 radial = radial / np.linalg.norm(radial)
                 ori = ori - (ori @ radial) * radial
                 if np.linalg.norm(ori) < 1e-9 * np.linalg.norm(self.orientations):
-                    raise ValueError(f"the {name} orientation is radial: no tangential part")
+                    raise InputError(f"the {name} orientation is radial: no tangential part")
             orientations.append(ori / np.linalg.norm(ori))
         peak_times = np.array(self.peak_times, dtype=float)
         return Truth(
             names=self.names,
             positions=self.positions,
-            orientations=_readonly(orientations),
+            orientations=readonly(orientations),
             waveforms=self.waveforms,
-            peak_times=_readonly(peak_times),
+            peak_times=readonly(peak_times),
             times=self.times,
         )
-
-
-def _vector(value, name):
-    vec = np.asarray(value, dtype=float) if _is_numeric(value) else None
-    if vec is None or vec.shape != (3,) or not np.isfinite(vec).all():
-        raise ValueError(f"{name} must be 3 finite numbers, got {value!r}")
-    return vec
-
-
-def _is_numeric(value):
-    try:
-        np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return False
-    return True
-
-
-def _real(value, name, *, minimum=None, strict=True):
-    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
-    if not ok or not np.isfinite(value):
-        raise ValueError(f"{name} must be a finite real number, got {value!r}")
-    if minimum is not None and (value <= minimum if strict else value < minimum):
-        raise ValueError(f"{name} must be {'>' if strict else '>='} {minimum}, got {value!r}")
-    return float(value)
 
 
 def _hann(times, onset, width, peak):
@@ -207,33 +174,33 @@ def p20n20_scenario(
     >>> sc.times.shape, sc.peak_times * 1e3
     ((41,), array([1.5, 2.5]))
     """
-    positions = [_vector(deep_position_mm, "deep_position_mm")]
-    positions.append(_vector(superficial_position_mm, "superficial_position_mm"))
+    positions = [check_vector("deep_position_mm", deep_position_mm, 3)]
+    positions.append(check_vector("superficial_position_mm", superficial_position_mm, 3))
     orientations = []
     for name, ori in [
         ("deep_orientation", deep_orientation),
         ("superficial_orientation", superficial_orientation),
     ]:
-        vec = _vector(ori, name)
+        vec = check_vector(name, ori, 3)
         if not np.linalg.norm(vec) > 0:
-            raise ValueError(f"{name} must be nonzero, got {ori!r}")
+            raise InputError(f"{name} must be nonzero, got {ori!r}")
         orientations.append(vec)
-    peak = _real(peak_amplitude_nam, "peak_amplitude_nam", minimum=0.0) * 1e-9
-    width = _real(pulse_ms, "pulse_ms", minimum=0.0) * 1e-3
+    peak = check_real("peak_amplitude_nam", peak_amplitude_nam, positive=True) * 1e-9
+    width = check_real("pulse_ms", pulse_ms, positive=True) * 1e-3
     onsets = [
-        _real(deep_onset_ms, "deep_onset_ms", minimum=0.0, strict=False) * 1e-3,
-        _real(superficial_onset_ms, "superficial_onset_ms", minimum=0.0, strict=False) * 1e-3,
+        check_real("deep_onset_ms", deep_onset_ms, nonnegative=True) * 1e-3,
+        check_real("superficial_onset_ms", superficial_onset_ms, nonnegative=True) * 1e-3,
     ]
-    sfreq = _real(sfreq, "sfreq", minimum=0.0)
-    duration = _real(duration_ms, "duration_ms", minimum=0.0) * 1e-3
+    sfreq = check_real("sfreq", sfreq, positive=True)
+    duration = check_real("duration_ms", duration_ms, positive=True) * 1e-3
     if width * sfreq < 2.0:
-        raise ValueError(
+        raise InputError(
             f"sfreq must sample each pulse at least twice: pulse_ms * sfreq / 1000 >= 2, got "
             f"sfreq={sfreq!r} with pulse_ms={pulse_ms!r}"
         )
     for name, onset in zip(("deep", "superficial"), onsets, strict=True):
         if onset + width > duration * (1 + 1e-9):
-            raise ValueError(
+            raise InputError(
                 f"duration_ms must cover every pulse: the {name} pulse ends at "
                 f"{(onset + width) * 1e3:g} ms, got duration_ms={duration_ms!r}"
             )
@@ -242,12 +209,12 @@ def p20n20_scenario(
     waveforms = [_hann(times, onset, width, peak) for onset in onsets]
     return Scenario(
         names=("deep", "superficial"),
-        positions=_readonly(np.array(positions) * 1e-3),
-        orientations=_readonly(orientations),
+        positions=readonly(np.array(positions) * 1e-3),
+        orientations=readonly(orientations),
         tangential=(False, True),
-        times=_readonly(times),
-        waveforms=_readonly(waveforms),
-        peak_times=_readonly([onset + width / 2 for onset in onsets]),
+        times=readonly(times),
+        waveforms=readonly(waveforms),
+        peak_times=readonly([onset + width / 2 for onset in onsets]),
         sfreq=sfreq,
     )
 
@@ -296,7 +263,7 @@ def _dipole_gain(head, truth):
         verbose=False,
     )
     if src[0]["nuse"] != n:
-        raise ValueError("scenario: a source lies outside the brain compartment")
+        raise InputError("scenario: a source lies outside the brain compartment")
     fwd = mne.make_forward_solution(
         head.info, trans=None, src=src, bem=head.sphere, eeg=True, meg=False, verbose=False
     )
@@ -304,7 +271,7 @@ def _dipole_gain(head, truth):
     free = np.asarray(fwd["sol"]["data"], dtype=float).reshape(head.n_channels, n, 3)
     gain = np.einsum("cnk,nk->cn", free, truth.orientations)
     if not np.isfinite(gain).all():
-        raise ValueError("the sources' forward field is not finite (a source at the centre?)")
+        raise InputError("the sources' forward field is not finite (a source at the centre?)")
     return gain - gain.mean(axis=0, keepdims=True)
 
 
@@ -334,23 +301,21 @@ def simulate(head, scenario, snr_db, seed):
     >>> sim.Y.shape
     (64, 41)
     """
-    if not isinstance(head, HeadModel):
-        raise ValueError(f"head must be a HeadModel, got {type(head).__name__}")
-    if not isinstance(scenario, Scenario):
-        raise ValueError(f"scenario must be a Scenario, got {type(scenario).__name__}")
-    snr_db = _real(snr_db, "snr_db")
-    if isinstance(seed, bool) or not isinstance(seed, (numbers.Integral, np.random.Generator)):
-        raise ValueError(f"seed must be an int or a numpy.random.Generator, got {seed!r}")
+    check_instance("head", head, HeadModel, "a HeadModel (skf_ref.head.make_head_model)")
+    check_instance("scenario", scenario, Scenario, "a Scenario (p20n20_scenario)")
+    snr_db = check_real("snr_db", snr_db)
+    if not isinstance(seed, np.random.Generator):
+        seed = check_int("seed", seed, minimum=0)
     truth = scenario.dipoles(head)
     for name, pos in zip(truth.names, truth.positions, strict=True):
         depth = np.linalg.norm(pos - head.origin)
         if depth >= head.brain_radius:
-            raise ValueError(
+            raise InputError(
                 f"scenario: the {name} source lies {depth * 1e3:.1f} mm from the sphere centre, "
                 f"outside the brain compartment (radius {head.brain_radius * 1e3:.1f} mm)"
             )
         if not region_mask(head.positions, pos).any():
-            raise ValueError(
+            raise InputError(
                 f"head: no grid position within {REGION_RADIUS_MM:g} mm of the {name} source; "
                 f"use a larger n_positions"
             )
@@ -358,8 +323,8 @@ def simulate(head, scenario, snr_db, seed):
     sigma = float(np.abs(Y_clean).max() * 10.0 ** (-snr_db / 20.0))
     noise = np.random.default_rng(seed).standard_normal(Y_clean.shape)
     return Simulation(
-        Y=_readonly(Y_clean + sigma * noise),
-        Y_clean=_readonly(Y_clean),
+        Y=readonly(Y_clean + sigma * noise),
+        Y_clean=readonly(Y_clean),
         sigma=sigma,
         times=truth.times,
         snr_db=snr_db,

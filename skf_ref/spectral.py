@@ -5,11 +5,11 @@ SPD noise covariance ``R``. Nothing is approximated; the result equals :mod:`skf
 to rounding. Cost: one thin SVD, O(r) work per step, and a few (n, r) x (r, T) products,
 with ``r = rank(L) <= n_channels``. Memory O(n r + n T); no (n, n) matrix is formed.
 
-Why it equals the dense recursion, equation by equation (spec §2-3)
--------------------------------------------------------------------
+Why it equals the dense recursion, equation by equation (docs/model.md §2-3)
+---------------------------------------------------------------------------
 **Whitening.** With ``R = C C^T`` (Cholesky), ``L~ = C^{-1} L``, ``y~ = C^{-1} y`` and noise
 covariance I give the same means and covariances: ``S~ = C^{-1} S C^{-T}`` and
-``K~ = K C``, so ``K S K^T = K~ S~ K~^T`` and the weights (7) are unchanged. The
+``K~ = K C``, so ``K S K^T = K~ S~ K~^T`` and the weights §2.2 (7) are unchanged. The
 log-likelihood changes by the Jacobian: ``log N(e; 0, S) = log N(e~; 0, S~) - log|det C|``.
 
 **Basis.** Let ``L~ = U diag(s) V^T`` (thin SVD, ``V`` (n, r) with orthonormal columns,
@@ -17,8 +17,8 @@ log-likelihood changes by the Jacobian: ``log N(e; 0, S) = log N(e~; 0, S~) - lo
 ``P = V diag(p) V^T + c (I - V V^T)``, with a vector ``p`` (r,) and one scalar ``c``.
 ``P_0 = theta0 I`` has it (``p = theta0``, ``c = theta0``). If ``P_{t-1|t-1}`` has it:
 
-- predict (4): ``a^2 P + q I`` has it with ``p_pred = a^2 p + q``, ``c_pred = a^2 c + q``;
-- update (5): ``S~ = U diag(s^2 p_pred) U^T + I``, so in the basis ``U`` (completed to R^m)
+- predict §2.2 (4): ``a^2 P + q I`` has it with ``p_pred = a^2 p + q``, ``c_pred = a^2 c + q``;
+- update §2.2 (5): ``S~ = U diag(s^2 p_pred) U^T + I``, so in the basis ``U`` (completed to R^m)
   ``S~`` is diagonal with entries ``s^2 p_pred + 1`` on ``U`` and 1 elsewhere, and
   ``K~ = P L~^T S~^{-1} = V diag(g) U^T`` with ``g = p_pred s / (s^2 p_pred + 1)``;
   ``P_{t|t} = P_pred - K~ S~ K~^T`` has ``p = p_pred / (s^2 p_pred + 1)``, ``c = c_pred``
@@ -32,17 +32,17 @@ and, on the complement of ``U``, the part of ``y~`` that no source explains, ``r
 ``log N(e~; 0, S~) = -(m log 2 pi + sum log(s^2 p_pred + 1)
 + sum (U^T e~)^2 / (s^2 p_pred + 1) + ||rho_t||^2) / 2``.
 
-**Weights (7).** ``w = diag(P^{1/2} L~^T S~^{-1} L~ P^{1/2})`` (spec §2) and
+**Weights, §2.2 (7).** ``w = diag(P^{1/2} L~^T S~^{-1} L~ P^{1/2})`` (docs/model.md §2) and
 ``L~ P^{1/2} = U diag(s sqrt(p_pred)) V^T``, so
 ``w = (V o V) omega`` with ``omega = s^2 p_pred / (s^2 p_pred + 1)`` (``o``: elementwise).
-**Output (6).** ``P_pred^{-1/2} x = V diag(p_pred^{-1/2}) xi``.
+**Output, §2.2 (6).** ``P_pred^{-1/2} x = V diag(p_pred^{-1/2}) xi``.
 
-**Smoother gains (3).** ``G_t = P_{t|t} a P_{t+1|t}^{-1} = V diag(gamma_t) V^T
+**Smoother gains, §2.3 (4).** ``G_t = P_{t|t} a P_{t+1|t}^{-1} = V diag(gamma_t) V^T
 + beta_t (I - V V^T)`` with ``gamma_t = a p_{t|t} / p_{t+1|t}`` and the scalar
 ``beta_t = a c_{t|t} / c_{t+1|t}``.
 
 - ``"rts-state"``: ``x^s`` stays in ``span V``:
-  ``xi^s_t = xi_t + gamma_t (xi^s_{t+1} - a xi_t)``, then (6) as above.
+  ``xi^s_t = xi_t + gamma_t (xi^s_{t+1} - a xi_t)``, then §2.2 (6) as above.
 - ``"rts-standardized"``: ``z`` is not in ``span V``. Write ``G_t = beta_t I +
   V diag(gamma_t - beta_t) V^T``. The scalar part gives, on whole vectors,
   ``h_t = z_t + beta_t (h_{t+1} - a z_t)``, ``h_T = z_T`` (O(n) per step, no product with
@@ -61,49 +61,15 @@ import functools
 import numpy as np
 from scipy import linalg
 
-from ._standardize import standardization_weights, standardize
 from .result import Reconstruction
+from .standardization import standardization_weights, standardize
 
-__all__ = ["SpectralModel", "run", "qualification_problem"]
+__all__ = ["SpectralModel", "run"]
 
 _LOG_2PI = np.log(2 * np.pi)
 # Temporaries of at most this size when forming (T, n) outputs: small enough for the
 # allocator to reuse them (a fresh large allocation costs a page fault per 4 KiB).
 _CHUNK_BYTES = 4 * 2**20
-
-
-def qualification_problem(transition, q, theta0):
-    """Why a model does not qualify for the spectral path, or ``None`` if it does.
-
-    Parameters
-    ----------
-    transition, q, theta0 : float or ndarray, shape (n_sources, n_sources)
-        As checked by :func:`skf_ref.reconstruct`.
-
-    Returns
-    -------
-    str or None
-
-    Examples
-    --------
-    >>> qualification_problem(1.0, 0.1, np.eye(3))
-    >>> qualification_problem(1.0, np.diag([1.0, 2.0]), 1.0)
-    'q is not a scalar multiple of the identity'
-    """
-    for name, value in (("transition", transition), ("q", q), ("theta0", theta0)):
-        if _isotropic(value) is None:
-            return f"{name} is not a scalar multiple of the identity"
-    return None
-
-
-def _isotropic(value):
-    """The scalar c if value is c or c I, else None."""
-    if np.ndim(value) == 0:
-        return float(value)
-    diagonal = np.diagonal(value)
-    c = diagonal[0]
-    isotropic = np.all(diagonal == c) and np.count_nonzero(value) == np.count_nonzero(diagonal)
-    return float(c) if isotropic else None
 
 
 def _whitener(R):
@@ -131,9 +97,9 @@ def _covariances(s, a, q, theta0, n_times):
     )
     p, c = np.full(len(s), theta0), theta0
     for t in range(n_times):
-        # P_{t|t-1} = a^2 P_{t-1|t-1} + q I                                 (4)
+        # P_{t|t-1} = a^2 P_{t-1|t-1} + q I                            §2.2 (4)
         p_pred[t], c_pred[t] = a**2 * p + q, a**2 * c + q
-        # P_{t|t} = P_{t|t-1} - K S K^T: on span V p / (s^2 p + 1), none on the rest  (5)
+        # P_{t|t} = P_{t|t-1} - K S K^T: on span V p / (s^2 p + 1), none on the rest §2.2 (5)
         p = p_filt[t] = p_pred[t] / (s**2 * p_pred[t] + 1)
         c = c_pred[t]
     return p_pred, p_filt, c_pred
@@ -146,7 +112,7 @@ def _means(s, eta, p_pred, a):
     for t in range(len(eta)):
         denom = s**2 * p_pred[t] + 1  # eigenvalues of S~ on span U
         innovation = eta[t] - s * a * x  # U^T (y~_t - L~ x_{t|t-1})
-        # x_{t|t} = x_{t|t-1} + K~ e~_t with K~ = V diag(p s / (s^2 p + 1)) U^T    (5)
+        # x_{t|t} = x_{t|t-1} + K~ e~_t with K~ = V diag(p s / (s^2 p + 1)) U^T §2.2 (5)
         x = xi[t] = a * x + p_pred[t] * s / denom * innovation
         quadratic += np.sum(innovation**2 / denom)
     return xi, quadratic
@@ -195,32 +161,38 @@ class SpectralModel:
 
     Parameters
     ----------
-    L : ndarray, shape (n_channels, n_sources)
-    R : ndarray, shape (n_channels, n_channels)
-        SPD noise covariance.
-    transition, q, theta0 : float or ndarray, shape (n_sources, n_sources)
-        Scalars or scalar multiples of the identity (see :func:`qualification_problem`).
+    model : StateSpaceModel
+        With ``transition``, ``q`` and ``theta0`` scalars or scalar multiples of the
+        identity (:meth:`StateSpaceModel.isotropic_problem` is None).
     n_times : int
 
     Examples
     --------
+    >>> from skf_ref.model import StateSpaceModel
     >>> rng = np.random.default_rng(0)
-    >>> L = rng.standard_normal((6, 9))
-    >>> model = SpectralModel(L, np.eye(6), 1.0, 0.1, 1.0, n_times=5)
-    >>> a = model.apply(rng.standard_normal((6, 5)), exponent=0.5, smoother=None)
-    >>> b = model.apply(rng.standard_normal((6, 5)), exponent=1.25, smoother="rts-state")
-    >>> a.z.shape, b.z.shape, model.rank
+    >>> model = StateSpaceModel.create(rng.standard_normal((6, 9)), noise_std=1.0,
+    ...                                theta0=1.0, q=0.1)
+    >>> prepared = SpectralModel(model, n_times=5)
+    >>> a = prepared.apply(rng.standard_normal((6, 5)), exponent=0.5, smoother=None)
+    >>> b = prepared.apply(rng.standard_normal((6, 5)), exponent=1.25, smoother="rts-state")
+    >>> a.z.shape, b.z.shape, prepared.rank
     ((9, 5), (9, 5), 6)
     """
 
-    def __init__(self, L, R, transition, q, theta0, n_times):
-        a, q, theta0 = (_isotropic(v) for v in (transition, q, theta0))
-        self.a, self.n_channels, self.n_sources, self.n_times = a, *L.shape, n_times
-        self._whiten, self._log_det_C = _whitener(R)
-        self.U, self.s, self.V = _basis(self._whiten(L))
+    def __init__(self, model, n_times):
+        problem = model.isotropic_problem()
+        if problem:
+            raise ValueError(
+                f"the spectral path needs A = a I, Q = q I, P_0 = theta0 I: {problem}"
+            )
+        a, q, theta0 = (model.scalar(name) for name in ("transition", "q", "theta0"))
+        self.model, self.a, self.n_times = model, a, n_times
+        self.n_channels, self.n_sources = model.L.shape
+        self._whiten, self._log_det_C = _whitener(model.R)
+        self.U, self.s, self.V = _basis(self._whiten(model.L))
         self._V_squared = self.V**2
         self.p_pred, self.p_filt, self.c_pred = _covariances(self.s, a, q, theta0, n_times)
-        # w = (V o V) omega, omega = s^2 p / (s^2 p + 1)                    (7)
+        # w = (V o V) omega, omega = s^2 p / (s^2 p + 1)               §2.2 (7)
         self.omega = self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)
         self._log_det_S = np.sum(np.log(self.s**2 * self.p_pred + 1))
 
@@ -230,12 +202,12 @@ class SpectralModel:
         return len(self.s)
 
     def _raw_weights(self, columns, out):
-        # w_t = (V o V) omega_t                                             (7)
+        # w_t = (V o V) omega_t                                        §2.2 (7)
         return np.matmul(self.omega, self._V_squared[columns].T, out=out)
 
     def _standardized(self, xi, exponent, project=False):
         """z (T, n) from singular coordinates; with ``project``, also ``z V`` (T, r)."""
-        # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t                    (6)-(7)
+        # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t           §2.2 (6)-(7)
         u = xi / np.sqrt(self.p_pred)
         projection = np.zeros_like(u) if project else None
 
@@ -297,10 +269,15 @@ class SpectralModel:
             z_filtered=lambda: z_filtered().T,
             x_filtered=lambda: x_filtered().T,
             weights=lambda: self._weights(exponent).T,
-            log_likelihood=float(log_likelihood - T * self._log_det_C),
+            log_likelihood=log_likelihood - T * self._log_det_C,
+            n_sources=self.n_sources,
+            n_times=T,
             exponent=exponent,
             smoother=smoother,
             method="spectral",
+            theta0=self.model.theta0,
+            q=self.model.q,
+            transition=self.model.transition,
         )
 
     def _weights(self, exponent):
@@ -313,16 +290,14 @@ class SpectralModel:
         )
 
 
-def run(L, Y, R, transition, q, theta0, exponent, smoother):
+def run(model, Y, exponent, smoother):
     """Filter and optionally smooth in the singular basis; equal to :func:`skf_ref.dense.run`.
 
     Parameters
     ----------
-    L : ndarray, shape (n_channels, n_sources)
+    model : StateSpaceModel
+        Isotropic: see :class:`SpectralModel`.
     Y : ndarray, shape (n_channels, n_times)
-    R : ndarray, shape (n_channels, n_channels)
-    transition, q, theta0 : float or ndarray, shape (n_sources, n_sources)
-        Scalars or scalar multiples of the identity (see :func:`qualification_problem`).
     exponent : float
     smoother : {None, "rts-standardized", "rts-state"}
 
@@ -331,7 +306,7 @@ def run(L, Y, R, transition, q, theta0, exponent, smoother):
     Reconstruction
         Its arrays are computed on first access.
     """
-    return SpectralModel(L, R, transition, q, theta0, Y.shape[1]).apply(Y, exponent, smoother)
+    return SpectralModel(model, Y.shape[1]).apply(Y, exponent, smoother)
 
 
 def _smooth_standardized(zf, zeta, V, gamma, beta, a):

@@ -1,5 +1,6 @@
 """The ``skf-ref`` command line: the demo end to end, one-line errors, interruptions."""
 
+import json
 import os
 import signal
 import subprocess
@@ -11,6 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import skf_ref
 from skf_ref.cli import main
 
 SMALL = ["--positions", "500", "--quiet"]  # a small head model: seconds, not a minute
@@ -27,10 +29,12 @@ def demo_dir(tmp_path_factory):
 def test_demo_writes_figures_arrays_and_metrics(demo_dir, capsys):
     names = sorted(p.name for p in demo_dir.iterdir())
     assert names == [
-        "average_reconstruction_filtered.png",
-        "average_reconstruction_smoothed.png",
         "metrics.csv",
+        "metrics_columns.csv",
+        "projections_filtered.png",
+        "projections_smoothed.png",
         "reconstruction.npz",
+        "settings.json",
         "time_courses_filtered.png",
         "time_courses_smoothed.png",
     ]
@@ -42,25 +46,71 @@ def test_demo_writes_figures_arrays_and_metrics(demo_dir, capsys):
     assert not np.array_equal(arrays["z_filtered"], arrays["z_smoothed"])
     table = pd.read_csv(demo_dir / "metrics.csv", index_col=0)
     assert list(table.columns) == ["filtered", "smoothed"]
-    assert "deep_error_mm" in table.index and "separation" in table.index
+    columns = pd.read_csv(demo_dir / "metrics_columns.csv", index_col=0)
+    assert list(columns.index) == list(table.index)  # every metric explained
+    assert set(columns["unit"]) >= {"mm", "dB", "bool"}
+    settings = json.loads((demo_dir / "settings.json").read_text())
+    # one position count, the grid's own, everywhere it is recorded
+    assert settings["n_positions"] == len(arrays["positions"]) == int(arrays["n_positions"])
+    assert settings["positions_requested"] == 500
+    assert settings["machine"]["versions"]["skf_ref"] == skf_ref.__version__
+    assert settings["machine"]["blas"] and settings["seed"] == 0
+    for name in ("snr_db", "pm_snr_db", "ep_snr_db", "exponent", "theta0", "q", "sigma"):
+        assert float(arrays[name]) == settings[name], name
+    assert str(arrays["smoother"]) == settings["smoother"] == "rts-standardized"
 
 
 def test_demo_prints_the_metrics_table(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path), *SMALL, "--snr-db", "20"]) == 0
     printed = capsys.readouterr().out
-    assert "data SNR 20 dB" in printed and "superficial_error_mm" in printed
+    assert "SNR 20 dB, EP-SNR 20 dB, PM-SNR 0 dB" in printed
+    assert "on 480 positions" in printed and "superficial_error_mm" in printed
+
+
+def test_demo_without_a_smoother_runs_the_filter_only(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path), *SMALL, "--smoother", "none"]) == 0
+    assert "smoothed" not in capsys.readouterr().out
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == [
+        "projections_filtered.png",
+        "time_courses_filtered.png",
+    ]
+    assert json.loads((tmp_path / "settings.json").read_text())["smoother"] is None
+
+
+def test_bare_command_prints_help_and_version(capsys):
+    assert main([]) == 0
+    assert "COMMAND" in capsys.readouterr().out
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"skf-ref {skf_ref.__version__}"
+
+
+@pytest.mark.parametrize("command", ["demo", "sweep"])
+def test_every_option_shows_its_default(command, capsys):
+    assert main([command, "--help"]) == 0
+    text = capsys.readouterr().out
+    options = [line.split()[0] for line in text.splitlines() if line.startswith("  --")]
+    flags = {"--help", "--quiet", *(["--out"] if command == "sweep" else [])}  # no default
+    for option in set(options) - flags:
+        block = text[text.index(f"  {option}") :].split("\n  -")[0]
+        assert "(default:" in " ".join(block.split()), option
 
 
 @pytest.mark.parametrize(
     "arguments, message",
     [
-        (["demo", "--snr-db", "nan"], "snr_db"),
-        (["demo", "--exponent", "-1"], "exponent must be >= 0"),
+        (["demo", "--snr-db", "nan"], "argument --snr-db: must be finite, got nan"),
+        (["demo", "--snr-db", "-inf"], "argument --snr-db: must be finite, got -inf"),
+        (["demo", "--snr-db", "7000"], "argument --snr-db: must be within +-300 dB"),
+        (["demo", "--exponent", "-1"], "argument --exponent: must be >= 0"),
         (["demo", "--montage", "nope"], "montage"),
-        (["demo", "--positions", "10"], "n_positions"),
+        (["demo", "--positions", "10"], "argument --positions: must be >= 420, got 10"),
+        (["demo", "--positions", "2.5"], "argument --positions: must be an integer"),
+        (["demo", "--seed", "-1"], "argument --seed: must be >= 0, got -1"),
         (["demo", "--smoother", "kalman"], "invalid choice"),
         (["sweep", "--out", "x.csv", "--smoother", "none", "--exponent"], "expected at least one"),
-        (["sweep", "--out", "x.csv", "--seeds", "0"], "grid['seed'] is empty"),
+        (["sweep", "--out", "x.csv", "--seeds", "0"], "argument --seeds: must be >= 1"),
+        (["sweep", "--out", "x.xlsx"], "argument --out: must end in .csv or .parquet"),
+        (["sweep", "--out", "x.csv", "--jobs", "0"], "argument --jobs"),
         (["frobnicate"], "invalid choice"),
     ],
 )

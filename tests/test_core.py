@@ -12,7 +12,7 @@ from filterpy.kalman import KalmanFilter
 from scipy import linalg, stats
 
 from skf_ref import Reconstruction, StandardizedKalmanFilter, dense, priors_from_snr, reconstruct
-from skf_ref.reconstruct import covariance_memory
+from skf_ref.memory import covariance_memory
 
 METHODS = ("filterpy", "dense", "spectral")
 # Paths for general linear-Gaussian models (spectral needs A = a I, P_0 = theta0 I, Q = q I
@@ -34,9 +34,6 @@ TOOLBOX_MIN_CHANGE = 1e-2
 # At t = T the smoothed z is the filtered z recomputed through the same standardization:
 # equal up to a few roundings of one matrix-vector product.
 LAST_STEP_RTOL = 1e-12
-# Symmetry of filterpy's Joseph-form covariance, relative to its largest entry: the two
-# triangles are rounded separately, a few 1e-16 apart.
-SYMMETRY_RTOL = 1e-12
 # The memory guard's estimate may miss working arrays of O(n^2) (a few percent at T = 12) but
 # no stored O(n^2 T) term: each such term would add a third of the estimate or more.
 MEMORY_ESTIMATE_SLACK = 1.25
@@ -90,7 +87,7 @@ def sqrtm_spd(P):
 def plain_skf(L, Y, R, A, Q, P0, exponent):
     """A textbook Kalman filter loop and the SKF standardization, written independently.
 
-    Uses the identity of spec §2, ``w_t = diag(B^T S_t^{-1} B)`` with
+    Uses the identity of docs/model.md §2, ``w_t = diag(B^T S_t^{-1} B)`` with
     ``B = L P_{t|t-1}^{1/2}``, and solves instead of the package's inverse square root.
     """
     n, T = L.shape[1], Y.shape[1]
@@ -116,7 +113,7 @@ def plain_skf(L, Y, R, A, Q, P0, exponent):
 class TestPaths:
     """Every property here must hold for every path."""
 
-    # --- spec §2: the sLORETA identity and the exponent -----------------------------------
+    # --- docs/model.md §2: the sLORETA identity and the exponent -----------------------
 
     @staticmethod
     def sloreta(L, y, p, sigma=None, R=None):
@@ -249,11 +246,24 @@ class TestPaths:
         else:
             np.testing.assert_array_equal(rec.x, rec.x_filtered)
 
-    def test_no_smoother_returns_the_filter(self, method, problem):
-        rec = reconstruct(**problem, method=method)
-        np.testing.assert_array_equal(rec.z, rec.z_filtered)
-        np.testing.assert_array_equal(rec.x, rec.x_filtered)
-        assert rec.smoother is None
+    def test_the_filter_is_causal(self, method, problem):
+        # z_{t|t} uses y_1..y_t only: the first steps of a longer run equal a shorter run
+        full = reconstruct(**problem, exponent=1.25, method=method)
+        short = reconstruct(**problem | {"Y": problem["Y"][:, :4]}, exponent=1.25, method=method)
+        assert_relative(full.z_filtered[:, :4], short.z_filtered, LAST_STEP_RTOL)
+        assert_relative(full.weights[:, :4], short.weights, LAST_STEP_RTOL)
+        # ... and no smoother means the filter's own sequence
+        assert full.smoother is None
+        np.testing.assert_array_equal(full.z, full.z_filtered)
+
+    @pytest.mark.parametrize("smoother", [None, *SMOOTHERS])
+    def test_raw_weights_lie_in_zero_one(self, method, problem, smoother):
+        # w_t = diag(P^-1/2 K S K^T P^-1/2) with K S K^T = P_{t|t-1} - P_{t|t} <= P_{t|t-1}:
+        # every raw weight is in (0, 1], so W = w^-alpha >= 1. Weights from P_{t|t} instead of
+        # P_{t|t-1} (a known slip) exceed 1.
+        rec = reconstruct(**problem, exponent=1.25, smoother=smoother, method=method)
+        raw = rec.weights ** (-1 / 1.25)
+        assert raw.min() > 0 and raw.max() <= 1 + 1e-12
 
     # --- against an independent plain loop ---------------------------------------------------
 
@@ -321,7 +331,7 @@ class TestPaths:
     # --- the result object, inputs, memory ---------------------------------------------------
 
     @pytest.mark.parametrize("smoother", [None, *SMOOTHERS])
-    def test_result_shapes(self, method, smoother):
+    def test_result_records_what_produced_it(self, method, smoother):
         rng = np.random.default_rng(7)
         L = lead_field(rng, 8, 15)  # 5 free-orientation positions
         Y = simulate(rng, L, 6, 1e-6, 1e-8)
@@ -329,20 +339,28 @@ class TestPaths:
             L, Y, noise_std=1e-6, theta0=1e-16, q=1e-17, smoother=smoother, method=method
         )
         assert isinstance(rec, Reconstruction)
-        for name in ("z", "x", "z_filtered", "x_filtered", "weights"):
-            assert getattr(rec, name).shape == (15, 6), name
-        assert (rec.n_sources, rec.n_times) == (15, 6)
-        assert (rec.method, rec.smoother, rec.exponent) == (method, smoother, 0.5)
+        assert repr(rec).startswith("<Reconstruction | 15 sources x 6 steps")
+        assert rec.settings == {
+            "method": method,
+            "exponent": 0.5,
+            "smoother": smoother,
+            "theta0": 1e-16,
+            "q": 1e-17,
+            "transition": 1.0,
+        }
         assert isinstance(rec.log_likelihood, float)
-        z = rec.z.reshape(5, 3, 6)
-        np.testing.assert_allclose(rec.amplitude(3), np.sqrt(np.sum(z**2, axis=1)), rtol=1e-15)
-        zf = rec.z_filtered.reshape(5, 3, 6)
-        np.testing.assert_allclose(
-            rec.amplitude(3, filtered=True), np.sqrt(np.sum(zf**2, axis=1)), rtol=1e-15
-        )
-        np.testing.assert_array_equal(rec.amplitude(1), np.abs(rec.z))
-        with pytest.raises(ValueError, match="components must be 1, 2 or 3 and divide"):
-            rec.amplitude(4)
+        for name in ("z", "x", "z_filtered", "x_filtered", "weights"):
+            array = getattr(rec, name)
+            assert array.shape == (15, 6), name
+            with pytest.raises(ValueError, match="read-only"):
+                array[0, 0] = 0.0
+        # MNE's free-orientation order: position p holds columns 3p, 3p+1, 3p+2
+        for p in range(5):
+            np.testing.assert_allclose(
+                rec.amplitude(3)[p], np.linalg.norm(rec.z[3 * p : 3 * p + 3], axis=0), rtol=1e-15
+            )
+        with pytest.raises(ValueError, match="components must divide n_sources=15, got 2"):
+            rec.amplitude(2)
 
     @pytest.mark.parametrize("smoother", [None, *SMOOTHERS])
     def test_inputs_not_mutated(self, method, problem, smoother):
@@ -392,14 +410,18 @@ class TestPaths:
         assert peak <= MEMORY_ESTIMATE_SLACK * limit, peak / limit
 
 
-def test_auto_method_agrees_with_dense():
-    # "auto" picks some path; whichever it is, it computes the same reconstruction.
+@pytest.mark.parametrize(
+    "change, expected",
+    [({}, "spectral"), ({"q": 1e-17 * np.diag(np.arange(1.0, 10))}, "dense")],
+    ids=["isotropic", "general"],
+)
+def test_auto_takes_spectral_exactly_when_the_model_qualifies(change, expected):
     rng = np.random.default_rng(8)
     L = lead_field(rng, 6, 9)
-    kwargs = {"noise_std": 1e-6, "theta0": 1e-16, "q": 1e-17, "smoother": "rts-state"}
+    kwargs = {"noise_std": 1e-6, "theta0": 1e-16, "q": 1e-17, "smoother": "rts-state"} | change
     Y = simulate(rng, L, 3, 1e-6, 1e-8)
     auto, reference = reconstruct(L, Y, **kwargs), reconstruct(L, Y, **kwargs, method="dense")
-    assert auto.method in METHODS + ("spectral",)
+    assert auto.method == expected
     for name in ("z", "x", "z_filtered", "x_filtered", "weights"):
         assert_relative(getattr(auto, name), getattr(reference, name), CROSS_PATH_RTOL, name)
 
@@ -416,12 +438,6 @@ def covariance_problem():
     return L, Y, 1e-12 * np.eye(12), np.eye(n), q * np.eye(n), theta0 * np.eye(n)
 
 
-def assert_spd(P, rtol):
-    scale = np.max(np.abs(P))
-    assert np.max(np.abs(P - P.T)) <= rtol * scale
-    assert np.min(linalg.eigvalsh(P)) > 0
-
-
 def test_dense_covariances_are_spd():
     f = dense.kalman_filter(*covariance_problem(), exponent=1.25)
     for t in range(f["P_filt"].shape[0]):
@@ -432,17 +448,6 @@ def test_dense_covariances_are_spd():
         # P_{t|t-1}^{-1/2} P_{t|t-1} P_{t|t-1}^{-1/2} = I
         M = f["P_pred_inv_sqrt"][t]
         np.testing.assert_allclose(M @ f["P_pred"][t] @ M, np.eye(30), atol=1e-9)
-
-
-def test_filterpy_covariances_are_spd():
-    L, Y, R, A, Q, P0 = covariance_problem()
-    kf = StandardizedKalmanFilter(dim_x=30, dim_z=12, exponent=1.25)
-    kf.x, kf.P, kf.F, kf.Q, kf.H, kf.R = np.zeros((30, 1)), P0.copy(), A, Q, L, R
-    for t in range(Y.shape[1]):
-        kf.predict()
-        assert_spd(kf.P, SYMMETRY_RTOL)
-        kf.update(Y[:, t])
-        assert_spd(kf.P, SYMMETRY_RTOL)
 
 
 # --- the filterpy subclass --------------------------------------------------------------------
@@ -485,22 +490,29 @@ class TestStandardizedKalmanFilter:
         kf.predict()
         P_prior = kf.P.copy()
         kf.update(np.array([0.3, -1.0, 0.5]))
-        for name in ("weights", "x_std", "raw_weights"):
+        for name in ("weights", "x_standardized", "raw_weights"):
             value = getattr(kf, name)
             assert value.shape == (4,), name
             assert np.all(np.isfinite(value)), name
-        # spec §2 identity: w = diag(B^T S^-1 B), B = H P_{t|t-1}^{1/2}
+        # docs/model.md §2 identity: w = diag(B^T S^-1 B), B = H P_{t|t-1}^{1/2}
         B = kf.H @ sqrtm_spd(P_prior)
         w = np.sum(B * linalg.solve(kf.S, B), axis=0)
         np.testing.assert_allclose(kf.raw_weights, w, rtol=1e-12)
         np.testing.assert_allclose(kf.weights, w**-1.25, rtol=1e-12)
         z = w**-1.25 * linalg.solve(sqrtm_spd(P_prior), kf.x.ravel())
-        np.testing.assert_allclose(kf.x_std, z, rtol=1e-12)
+        np.testing.assert_allclose(kf.x_standardized, z, rtol=1e-12)
+
+    def test_x_std_is_the_standardized_estimate(self):
+        # the first release's name, kept: the same array as x_standardized
+        kf = self.make()
+        kf.predict()
+        kf.update(np.array([0.3, -1.0, 0.5]))
+        assert kf.x_std is kf.x_standardized
 
     def test_missing_measurement_gives_nan(self):
         kf = self.make()
         kf.predict()
         kf.update(None)
-        for name in ("weights", "x_std", "raw_weights"):
+        for name in ("weights", "x_standardized", "raw_weights"):
             assert getattr(kf, name).shape == (4,)
             assert np.all(np.isnan(getattr(kf, name))), name

@@ -81,7 +81,11 @@ def _noise_cov(value):
 
 
 CASES = {
-    "L 1-D": (_with("L", lambda k: k["L"][:, 0]), ValueError, r"L must have shape \(any, any\)"),
+    "L 1-D": (
+        _with("L", lambda k: k["L"][:, 0]),
+        ValueError,
+        r"L must have shape \(n_channels, n_sources\), got \(6,\)",
+    ),
     "L 3-D": (_with("L", lambda k: k["L"][None]), ValueError, r"L must have shape"),
     "L NaN": (_bad_entry("L", np.nan), ValueError, "L contains NaN or Inf"),
     "L Inf": (_bad_entry("L", np.inf), ValueError, "L contains NaN or Inf"),
@@ -90,12 +94,12 @@ CASES = {
     "Y wrong n_channels": (
         _with("Y", lambda k: k["Y"][:-1]),
         ValueError,
-        rf"Y must have shape \({M}, any\), got \({M - 1}, {T}\)",
+        rf"Y must have shape \({M}, n_times\), got \({M - 1}, {T}\)",
     ),
     "Y transposed": (
         _with("Y", lambda k: k["Y"].T),
         ValueError,
-        rf"Y must have shape \({M}, any\), got \({T}, {M}\)",
+        rf"Y must have shape \({M}, n_times\), got \({T}, {M}\)",
     ),
     "Y 1-D": (_with("Y", lambda k: k["Y"][:, 0]), ValueError, r"Y must have shape"),
     "Y no time step": (_with("Y", np.zeros((M, 0))), ValueError, "Y must have at least one"),

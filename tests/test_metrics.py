@@ -1,11 +1,12 @@
-"""Each metric of shared/SKF_SPEC.md §6 on hand-made cases with known answers."""
+"""Each metric of docs/model.md §6 on hand-made cases with known answers."""
 
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from skf_ref import metrics
+from skf_ref import metrics, regions
+from skf_ref.result import amplitude_from_components
 
 # A line of positions 5 mm apart along x (metres): distances between them are exact.
 POSITIONS = np.column_stack([np.arange(0, 0.1, 0.005), np.zeros(20), np.zeros(20)])
@@ -57,7 +58,7 @@ def test_deep_source_moved_20_mm_reports_20_mm():
 
 
 def test_region_is_15_mm():
-    mask = metrics.region_mask(POSITIONS, DEEP)
+    mask = regions.region_mask(POSITIONS, DEEP)
     assert mask[:5].all()  # up to 10 mm away
     assert not mask[6:].any()  # 20 mm and more (position 5 sits on the 15 mm boundary)
 
@@ -68,7 +69,7 @@ def test_detection_uses_a_6_db_range():
     assert not metrics.detected(amplitude, POSITIONS, DEEP, I_DEEP)
     amplitude[15, I_DEEP] = amplitude[2, I_DEEP] * 10 ** (5.5 / 20)
     assert metrics.detected(amplitude, POSITIONS, DEEP, I_DEEP)
-    assert metrics.region_db(amplitude, POSITIONS, DEEP, I_DEEP) == pytest.approx(-5.5)
+    assert regions.region_db(amplitude, POSITIONS, DEEP, I_DEEP) == pytest.approx(-5.5)
 
 
 def test_echo_is_the_excess_of_deep_activity_at_the_superficial_peak():
@@ -97,7 +98,7 @@ def test_separation_fails_when_deep_persists_at_the_superficial_peak():
 def test_summarize_takes_a_reconstruction_object():
     z = np.zeros((60, 41))
     z[3 * 2 + 1], z[3 * 15 + 2] = TRUTH.waveforms  # y of the deep, z of the superficial
-    reconstruction = SimpleNamespace(amplitude=lambda c: metrics.amplitude_from_components(z, c))
+    reconstruction = SimpleNamespace(amplitude=lambda c: amplitude_from_components(z, c))
     assert metrics.summarize(reconstruction, HEAD, TRUTH) == metrics.summarize(
         perfect(), HEAD, TRUTH
     )
@@ -108,8 +109,8 @@ def test_summarize_takes_a_reconstruction_object():
     [
         (lambda: metrics.summarize(np.ones((19, 41)), HEAD, TRUTH), "n_positions=20"),
         (lambda: metrics.summarize(np.ones((20, 40)), HEAD, TRUTH), r"\(20, 41\)"),
-        (lambda: metrics.amplitude_from_components(np.ones((7, 3))), "n_components=3"),
-        (lambda: metrics.region_mask(POSITIONS[:, :2], DEEP), "positions"),
+        (lambda: amplitude_from_components(np.ones((7, 3))), "n_components=3"),
+        (lambda: regions.region_mask(POSITIONS[:, :2], DEEP), "positions"),
         (lambda: metrics.peak_localization_error(perfect(), POSITIONS, DEEP, 41), "peak_index"),
     ],
 )

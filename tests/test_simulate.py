@@ -1,4 +1,4 @@
-"""The head model and the P20/N20 scenario match shared/SKF_SPEC.md §5."""
+"""The head model and the P20/N20 scenario match docs/model.md §5."""
 
 import mne
 import numpy as np
@@ -31,7 +31,15 @@ def test_head_model_geometry_and_lead_field(head):
     np.testing.assert_allclose(head.leadfield.sum(axis=0), 0, atol=1e-12 * 1e3)  # average ref
     distances = np.linalg.norm(head.positions - head.origin, axis=1)
     assert distances.max() < head.brain_radius  # inside the brain compartment
-    np.testing.assert_allclose(head.origin, [0, 0, 0.0401], atol=5e-4)  # fitted to biosemi64
+    # the sphere is fitted to the electrodes: its centre and outer radius are those of the
+    # least-squares sphere through them (|e|^2 = 2 e.c + (r^2 - |c|^2), linear in c)
+    electrodes = np.array([ch["loc"][:3] for ch in head.info["chs"]])
+    design = np.c_[2 * electrodes, np.ones(len(electrodes))]
+    solution = np.linalg.lstsq(design, np.sum(electrodes**2, axis=1), rcond=None)[0]
+    centre = solution[:3]
+    np.testing.assert_allclose(head.origin, centre, atol=1e-6)
+    outer = max(layer["rad"] for layer in head.sphere["layers"])
+    assert outer == pytest.approx(np.sqrt(solution[3] + centre @ centre), rel=1e-6)
     assert not head.leadfield.flags.writeable
     # free orientation in MNE's order: column 3 p + k is the k-th axis of position p
     gain = head.fwd["sol"]["data"]
@@ -109,24 +117,34 @@ def test_same_seed_same_noise_other_seed_other_noise(head, scenario):
 
 
 @pytest.mark.parametrize(
-    "call, match",
+    "call, error, match",
     [
-        (lambda: make_head_model(500, montage="biosemi65"), "montage must be the name"),
-        (lambda: make_head_model(5), "n_positions must be at least"),
-        (lambda: make_head_model(500.5), "n_positions must be an int"),
-        (lambda: make_head_model(500, seed=-1), "seed must be None or a non-negative int"),
-        (lambda: p20n20_scenario(pulse_ms=-3.0), "pulse_ms must be > 0"),
-        (lambda: p20n20_scenario(superficial_onset_ms=3.0), "superficial"),
+        (lambda: make_head_model(500, montage="biosemi65"), ValueError, "montage must be the"),
+        (lambda: make_head_model(5), ValueError, "n_positions must be >= 10, got 5"),
+        (lambda: make_head_model(500.5), TypeError, "n_positions must be an integer, got 500.5"),
+        (lambda: make_head_model(500, seed=-1), ValueError, "seed must be >= 0, got -1"),
+        (lambda: p20n20_scenario(pulse_ms=-3.0), ValueError, "pulse_ms must be > 0"),
+        (lambda: p20n20_scenario(pulse_ms="3"), TypeError, "pulse_ms must be a real number"),
+        (lambda: p20n20_scenario(superficial_onset_ms=3.0), ValueError, "superficial"),
+        (lambda: p20n20_scenario(deep_position_mm=(1, 2)), ValueError, r"shape \(3,\)"),
     ],
 )
-def test_bad_input(call, match):
-    with pytest.raises(ValueError, match=match):
+def test_bad_input(call, error, match):
+    with pytest.raises(error, match=match):
         call()
 
 
-@pytest.mark.parametrize("snr_db", [float("nan"), float("inf"), -float("inf"), "20"])
-def test_snr_must_be_finite(head, scenario, snr_db):
-    with pytest.raises(ValueError, match="snr_db must be a finite real number"):
+@pytest.mark.parametrize(
+    "snr_db, error, match",
+    [
+        (float("nan"), ValueError, "snr_db must be finite, got nan"),
+        (float("inf"), ValueError, "snr_db must be finite, got inf"),
+        (-float("inf"), ValueError, "snr_db must be finite, got -inf"),
+        ("20", TypeError, "snr_db must be a real number, got '20' \\(str\\)"),
+    ],
+)
+def test_snr_must_be_finite(head, scenario, snr_db, error, match):
+    with pytest.raises(error, match=match):
         simulate(head, scenario, snr_db, seed=0)
 
 

@@ -11,6 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from skf_ref import dense, priors_from_snr, reconstruct
+from skf_ref.model import StateSpaceModel
 from skf_ref.spectral import SpectralModel
 
 # Both paths are exact algebra, so they differ by rounding only, and rounding grows with the
@@ -153,7 +154,7 @@ def test_prepared_model_applied_many_times_equals_fresh_runs():
     rng = np.random.default_rng(2)
     L = rng.standard_normal((6, 12))
     L -= L.mean(axis=0)
-    model = SpectralModel(L, np.eye(6), 1.0, 0.05, 1.0, n_times=5)
+    model = SpectralModel(StateSpaceModel.create(L, noise_std=1.0, theta0=1.0, q=0.05), n_times=5)
     for exponent, smoother in [(0.5, None), (1.25, "rts-standardized"), (1.5, "rts-state")]:
         Y = rng.standard_normal((6, 5))
         prepared = model.apply(Y, exponent, smoother)

@@ -14,7 +14,15 @@ import pandas as pd
 import pytest
 
 from skf_ref import metrics, priors_from_snr, reconstruct, simulate
-from skf_ref.sweep import KEY, check_grid, paper_grid, read_results, run_group, run_sweep
+from skf_ref.sweep import (
+    KEY,
+    TornLineWarning,
+    check_grid,
+    paper_grid,
+    read_results,
+    run_group,
+    run_sweep,
+)
 
 POSITIONS = 500  # the smallest grid that holds the scenario comfortably: fast tests
 
@@ -35,10 +43,10 @@ def small_grid(seeds=2):
     [
         (dict(exponent=[]), r"grid\['exponent'\] is empty"),
         (dict(smoother=["rts"]), r"smoother'\] values must be one of"),
-        (dict(exponent=[0.5, -0.25]), r"grid\['exponent'\] values must be finite and >= 0"),
+        (dict(exponent=[0.5, -0.25]), r"grid\['exponent'\] values must be >= 0, got -0.25"),
         (dict(snr_db=[float("nan")]), r"grid\['snr_db'\] values must be finite"),
         (dict(seed=[0, 0]), r"grid\['seed'\] has repeated values"),
-        (dict(seed=[1.5]), r"grid\['seed'\] values must be integers"),
+        (dict(seed=[1.5]), r"grid\['seed'\] values must be an integer, got 1.5"),
         (dict(alpha=[1.0]), r"unknown \['alpha'\]"),
     ],
 )
@@ -100,9 +108,12 @@ def test_torn_last_line_is_dropped_on_resume(tmp_path):
     out = tmp_path / "results.csv"
     run_sweep(small_grid(seeds=1), out, progress=False, n_positions=POSITIONS)
     with open(out, "ab") as f:
-        f.write(b"500,biosemi64,20.0,0.0")  # a row cut short by a power loss
+        f.write(b"480,biosemi64,20.0,0.0")  # a row cut short by a power loss
+    torn = out.read_bytes()
     assert len(read_results(out)) == 8
-    table = run_sweep(small_grid(seeds=1), out, progress=False, n_positions=POSITIONS)
+    assert out.read_bytes() == torn  # reading never writes
+    with pytest.warns(TornLineWarning, match="torn last line"):
+        table = run_sweep(small_grid(seeds=1), out, progress=False, n_positions=POSITIONS)
     assert len(table) == 8 and out.read_bytes().endswith(b"\n")
 
 

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from skf_ref._io import atomic_path
+from skf_ref.files import atomic_path
 
 SIZES = ((600, 64, 41), (1500, 64, 41), (9000, 64, 41), (9000, 64, 1000), (150000, 128, 1000))
 PATHS = ("filterpy", "dense", "spectral", "mne-sloreta", "mne-sloreta+make")
@@ -133,12 +133,12 @@ def _runner(problem, path):
 
 def _not_runnable(path, n_columns, n_times):
     """The memory the path needs if the guard refuses it, else None."""
-    from skf_ref.reconstruct import available_memory, covariance_memory
+    from skf_ref import memory
 
     if path not in ("filterpy", "dense"):
         return None
-    needed = covariance_memory(n_columns, n_times, path, "rts-standardized")
-    return needed if needed > available_memory() / 2 else None
+    needed = memory.covariance_memory(n_columns, n_times, path, "rts-standardized")
+    return needed if needed > memory.available_memory() / 2 else None
 
 
 def measure(run, repeats):

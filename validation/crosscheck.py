@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from skf_ref import priors_from_snr, reconstruct
-from skf_ref.reconstruct import METHODS
+from skf_ref.inverse import METHODS
 
 __all__ = [
     "TOLERANCE",

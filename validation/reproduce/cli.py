@@ -14,7 +14,7 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
-from skf_ref._io import atomic_path
+from skf_ref.files import atomic_path
 
 from .figures import make_figures
 from .report import ReportData, report_text

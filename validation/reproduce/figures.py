@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from skf_ref._io import atomic_path
+from skf_ref.files import atomic_path
 
 from .settings import (
     CORNERS,

@@ -13,7 +13,7 @@ from itertools import product
 import numpy as np
 import pandas as pd
 
-from skf_ref.metrics import DYNAMIC_RANGE_DB as DETECTION_DB
+from skf_ref.regions import DYNAMIC_RANGE_DB as DETECTION_DB
 
 from .discussion import _discussion
 from .runs import electrode_floor

@@ -40,14 +40,15 @@ class CheckedRuns:
         self.models, self.sims, self.truth = {}, {}, None
 
     def _model(self, snr, ep, pm, sim):
+        from skf_ref.model import StateSpaceModel
         from skf_ref.priors import priors_from_snr
         from skf_ref.spectral import SpectralModel
 
         if (snr, ep, pm) not in self.models:
             L, T = self.head.leadfield, sim.Y.shape[1]
             theta0, q = priors_from_snr(L, sim.sigma, pm, ep, T)
-            R = sim.sigma**2 * np.eye(self.head.n_channels)
-            self.models[snr, ep, pm] = SpectralModel(L, R, 1.0, q, theta0, T)
+            model = StateSpaceModel.create(L, noise_std=sim.sigma, theta0=theta0, q=q)
+            self.models[snr, ep, pm] = SpectralModel(model, T)
         return self.models[snr, ep, pm]
 
     def _simulation(self, snr, seed):
@@ -140,7 +141,7 @@ class Diagnostic:
 
 
 def _diagnose(runs, amps):
-    from skf_ref.metrics import region_time_course
+    from skf_ref.regions import region_time_course
 
     floor, heights = electrode_floor(runs.head), runs.head.positions[:, 2]
     i_deep, i_sup = runs.truth.peak_indices

@@ -97,7 +97,7 @@ def run_sensitivity(head, seeds, out):
     -------
     Sensitivity
     """
-    from skf_ref._io import atomic_path
+    from skf_ref.files import atomic_path
     from skf_ref.sweep import KEY
 
     cropped = crop_head(head)

@@ -11,7 +11,7 @@ import platform
 from dataclasses import dataclass
 from pathlib import Path
 
-from skf_ref.sweep import package_versions
+from skf_ref.provenance import blas_threads, package_versions
 
 __all__ = [
     "CORNERS",
@@ -130,8 +130,10 @@ def _source_digest():
     import skf_ref
 
     digest = hashlib.sha256()
-    for path in sorted(Path(skf_ref.__file__).parent.glob("*.py")):
-        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    root = Path(skf_ref.__file__).parent
+    for path in sorted(root.rglob("*.py")):
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+        digest.update(path.read_bytes() + b"\0")
     return digest.hexdigest()
 
 
@@ -157,5 +159,6 @@ def manifest(settings):
         n_positions=settings.n_positions,
         montage=MONTAGE,
         versions=_versions(),
+        blas=blas_threads(),
         skf_ref_sources_sha256=_source_digest(),
     )

@@ -1,0 +1,105 @@
+"""Argument parsing for ``skf-ref``: one-line errors naming the flag, defaults in the help."""
+
+import argparse
+import re
+
+from ..checks import InputError, check_int, check_real
+
+__all__ = ["Parser", "db", "integer", "nonnegative", "progress"]
+
+# Negative numbers, infinities and NaN are values, not options: "--snr-db -inf" parses.
+_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+
+class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows every default except those that mean "not given" (None, False)."""
+
+    def _get_help_string(self, action):
+        if action.default is None or action.default is False or action.required:
+            return action.help
+        return super()._get_help_string(action)
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are :class:`~skf_ref.InputError` (one line, exit 2)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", _Formatter)
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = _NUMBER
+
+    def error(self, message):
+        raise InputError(message)
+
+
+def _number(text):
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def _typed(check):
+    """An argparse type from a check: its error becomes "argument --flag: ..."."""
+
+    def parse(text):
+        try:
+            return check(text)
+        except InputError as err:
+            message = str(err).split(" ", 1)[1]  # drop the parameter name: argparse adds the flag
+            raise argparse.ArgumentTypeError(f"{message}") from None
+
+    parse.__name__ = check.__name__
+    return parse
+
+
+def db(maximum=300.0):
+    """A level in dB: finite, within +-``maximum`` (10**(dB/10) far from overflow)."""
+
+    def level(text):
+        value = check_real("value", _number(text))
+        if abs(value) > maximum:
+            raise InputError(f"value must be within +-{maximum:g} dB, got {text}")
+        return value
+
+    return _typed(level)
+
+
+def nonnegative(maximum=None):
+    """A finite number >= 0 (and <= ``maximum``)."""
+    return _typed(
+        lambda text: check_real("value", _number(text), nonnegative=True, maximum=maximum)
+    )
+
+
+def integer(minimum=None, maximum=None):
+    """An integer in [minimum, maximum]."""
+
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            raise InputError(f"value must be an integer, got {text!r}") from None
+        return check_int("value", value, minimum=minimum, maximum=maximum)
+
+    return _typed(parse)
+
+
+def progress(args, text):
+    """A context manager printing ``text ...`` and the seconds it took, unless ``--quiet``."""
+    import contextlib
+    import sys
+    import time
+
+    @contextlib.contextmanager
+    def stage():
+        start = time.perf_counter()
+        if not args.quiet:
+            print(f"{text} ...", end="", file=sys.stderr, flush=True)
+        try:
+            yield
+        finally:
+            if not args.quiet:
+                print(f" {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
+
+    return stage()

@@ -1,0 +1,127 @@
+"""The linear-Gaussian state-space model the SKF runs on, checked once (docs/model.md §1).
+
+::
+
+    x_t = A x_{t-1} + q_t,   q_t ~ N(0, Q)
+    y_t = L x_t + r_t,       r_t ~ N(0, R)
+    x_0 ~ N(0, P_0)
+
+Every path (:mod:`skf_ref.dense`, :mod:`skf_ref.kalman`, :mod:`skf_ref.spectral`) takes a
+:class:`StateSpaceModel`. ``transition``, ``q`` and ``theta0`` keep the form the user gave:
+a scalar ``c`` means ``c I`` (the paper's isotropic model), a matrix means itself.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .checks import (
+    InputError,
+    check_leadfield,
+    check_real,
+    check_scalar_or_spd,
+    check_spd,
+    check_transition,
+)
+
+__all__ = ["StateSpaceModel"]
+
+
+@dataclass(frozen=True, eq=False)
+class StateSpaceModel:
+    """A checked state-space model: lead field, noise covariance, transition and priors.
+
+    Build it with :meth:`create`, which checks every parameter; the constructor itself
+    trusts its arguments.
+
+    Attributes
+    ----------
+    L : ndarray, shape (n_channels, n_sources)
+        Lead field.
+    R : ndarray, shape (n_channels, n_channels)
+        Noise covariance, symmetric positive definite.
+    transition : float or ndarray, shape (n_sources, n_sources)
+        ``A``: a scalar ``a`` means ``a I``.
+    q : float or ndarray, shape (n_sources, n_sources)
+        ``Q``: a scalar means ``q I`` (``q >= 0``).
+    theta0 : float or ndarray, shape (n_sources, n_sources)
+        ``P_0``: a scalar means ``theta0 I`` (``theta0 > 0``).
+
+    Examples
+    --------
+    >>> model = StateSpaceModel.create(np.eye(2, 3) + 1, noise_std=0.1, theta0=1.0, q=0.1)
+    >>> model.n_channels, model.n_sources, model.isotropic_problem()
+    (2, 3, None)
+    >>> model.matrix("q")
+    array([[0.1, 0. , 0. ],
+           [0. , 0.1, 0. ],
+           [0. , 0. , 0.1]])
+    """
+
+    L: np.ndarray
+    R: np.ndarray
+    transition: object
+    q: object
+    theta0: object
+
+    @classmethod
+    def create(cls, L, *, noise_std=None, noise_cov=None, theta0, q, transition=1.0):
+        """Check every parameter (names as in :func:`skf_ref.reconstruct`) and build the model.
+
+        Returns
+        -------
+        StateSpaceModel
+        """
+        L = check_leadfield(L)
+        m, n = L.shape
+        if (noise_std is None) == (noise_cov is None):
+            raise InputError("give exactly one of noise_std (a scalar) or noise_cov (a matrix)")
+        if noise_std is not None:
+            R = check_real("noise_std", noise_std, positive=True) ** 2 * np.eye(m)
+        else:
+            R = check_spd("noise_cov", noise_cov, m)
+        theta0 = check_scalar_or_spd("theta0", theta0, n)
+        q = check_scalar_or_spd("q", q, n, allow_zero=True)
+        transition = check_transition(transition, n)
+        if np.ndim(q) == 0 and q == 0 and np.ndim(transition) == 0 and transition == 0:
+            raise InputError("q must be > 0 when transition is 0: P_t|t-1 would be 0")
+        return cls(L=L, R=R, transition=transition, q=q, theta0=theta0)
+
+    @property
+    def n_channels(self):
+        """int : Rows of the lead field."""
+        return self.L.shape[0]
+
+    @property
+    def n_sources(self):
+        """int : Columns of the lead field (state components)."""
+        return self.L.shape[1]
+
+    def matrix(self, name):
+        """``"transition"``, ``"q"`` or ``"theta0"`` as an (n_sources, n_sources) matrix."""
+        value = getattr(self, name)
+        return value * np.eye(self.n_sources) if np.ndim(value) == 0 else value
+
+    def scalar(self, name):
+        """``c`` if ``transition``, ``q`` or ``theta0`` is a scalar ``c`` or ``c I``, else None."""
+        value = getattr(self, name)
+        if np.ndim(value) == 0:
+            return float(value)
+        diagonal = np.diagonal(value)
+        c = diagonal[0]
+        isotropic = np.all(diagonal == c) and np.count_nonzero(value) == np.count_nonzero(diagonal)
+        return float(c) if isotropic else None
+
+    def isotropic_problem(self):
+        """Why the model is not ``A = a I, Q = q I, P_0 = theta0 I``, or None if it is.
+
+        The spectral path (:mod:`skf_ref.spectral`) needs exactly that model.
+
+        Returns
+        -------
+        str or None
+        """
+        for name in ("transition", "q", "theta0"):
+            if self.scalar(name) is None:
+                return f"{name} is not a scalar multiple of the identity"
+        return None

@@ -1,0 +1,151 @@
+"""The standardization step of the SKF: the one home of §2.2 eqs. (6)-(7) (docs/model.md §2).
+
+The raw weights ``w_t = diag(P^{-1/2} K S K^T P^{-1/2})`` come from the matrices in
+:func:`raw_weights` (the dense path and the filterpy subclass) or from singular values (the
+spectral path); every path then calls :func:`standardize`. :func:`restandardize` is the
+standardization of a smoothed state for ``"rts-state"`` (docs/model.md §3).
+"""
+
+import numpy as np
+from scipy import linalg
+
+__all__ = [
+    "inverse_sqrt",
+    "raw_weights",
+    "restandardize",
+    "standardization_weights",
+    "standardize",
+]
+
+
+def raw_weights(P_pred_inv_sqrt, K, S):
+    """The raw weights of §2.2 eq. (7) from the filter's matrices.
+
+    Parameters
+    ----------
+    P_pred_inv_sqrt : ndarray, shape (n_sources, n_sources)
+        ``P_{t|t-1}^{-1/2}``.
+    K : ndarray, shape (n_sources, n_channels)
+        Kalman gain ``K_t``.
+    S : ndarray, shape (n_channels, n_channels)
+        Innovation covariance ``S_t``.
+
+    Returns
+    -------
+    ndarray, shape (n_sources,)
+        ``w_t = diag(P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2})``.
+
+    Examples
+    --------
+    >>> raw_weights(np.eye(2), np.array([[1.0], [2.0]]), np.array([[3.0]])).tolist()
+    [3.0, 12.0]
+    """
+    # w_t = diag(P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2})           (7)
+    M = P_pred_inv_sqrt @ K
+    return np.einsum("ij,jk,ik->i", M, S, M)
+
+
+def standardization_weights(w, exponent, out=None):
+    """The diagonal of ``W_t^(alpha) = Diag(w_t)^(-alpha)``, §2.2 eq. (7).
+
+    ``out`` (which may be ``w`` itself) receives the result.
+
+    Examples
+    --------
+    >>> standardization_weights(np.array([0.25, 4.0]), 0.5).tolist()
+    [2.0, 0.5]
+    """
+    return np.power(w, -exponent, out=out)
+
+
+def standardize(w, whitened, exponent, out=None, overwrite_w=False):
+    """Apply §2.2 eqs. (7) and (6) to raw weights and whitened means.
+
+    Parameters
+    ----------
+    w : ndarray, shape (n_sources,) or (..., n_sources)
+        ``diag(P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2})``.
+    whitened : ndarray, same shape as ``w``
+        ``P_{t|t-1}^{-1/2} x``.
+    exponent : float
+        The standardization exponent alpha.
+    out : ndarray, optional
+        Where to write ``z`` (may be ``whitened`` itself).
+    overwrite_w : bool
+        Write the weights over ``w`` instead of a new array.
+
+    Returns
+    -------
+    weights : ndarray, same shape as ``w``
+        The diagonal of ``W_t^(alpha) = Diag(w_t ** -alpha)`` (7).
+    z : ndarray, same shape as ``w``
+        ``W_t^(alpha) P_{t|t-1}^{-1/2} x`` (6).
+
+    Examples
+    --------
+    >>> weights, z = standardize(np.array([0.25, 1.0]), np.array([1.0, 2.0]), 0.5)
+    >>> weights.tolist(), z.tolist()
+    ([2.0, 1.0], [2.0, 2.0])
+    """
+    # W_t^(alpha) = Diag(w_t)^(-alpha)                                     (7)
+    weights = standardization_weights(w, exponent, out=w if overwrite_w else None)
+    # z = W_t^(alpha) P^{-1/2} x                                            (6)
+    return weights, np.multiply(weights, whitened, out=out)
+
+
+def restandardize(w, P_pred_inv_sqrt, x, exponent):
+    """Standardize a smoothed state with the filter's own weights (``"rts-state"``).
+
+    ``z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t`` (docs/model.md §3).
+
+    Parameters
+    ----------
+    w : ndarray, shape (n_times, n_sources)
+        The filter's raw weights ``w_t``.
+    P_pred_inv_sqrt : ndarray, shape (n_times, n_sources, n_sources)
+        ``P_{t|t-1}^{-1/2}`` of every step.
+    x : ndarray, shape (n_times, n_sources)
+        Smoothed state ``x^s_t``.
+    exponent : float
+
+    Returns
+    -------
+    ndarray, shape (n_times, n_sources)
+
+    Examples
+    --------
+    >>> restandardize(np.array([[4.0]]), np.array([[[0.5]]]), np.array([[6.0]]), 0.5)
+    array([[1.5]])
+    """
+    return standardize(w, np.einsum("tij,tj->ti", P_pred_inv_sqrt, x), exponent)[1]
+
+
+def inverse_sqrt(P):
+    """Symmetric inverse square root ``P^{-1/2}`` of an SPD matrix, by ``eigh``.
+
+    Parameters
+    ----------
+    P : ndarray, shape (n, n)
+        Symmetric positive definite.
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        Symmetric ``M`` with ``M @ P @ M = I``.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If ``P`` has an eigenvalue <= 0.
+
+    Examples
+    --------
+    >>> inverse_sqrt(np.diag([4.0, 0.25])).tolist()
+    [[0.5, 0.0], [0.0, 2.0]]
+    """
+    eigenvalues, eigenvectors = linalg.eigh(P)
+    if eigenvalues[0] <= 0:
+        raise np.linalg.LinAlgError(
+            f"P_t|t-1 is not positive definite (smallest eigenvalue {eigenvalues[0]:.3g})"
+        )
+    return (eigenvectors / np.sqrt(eigenvalues)) @ eigenvectors.T
