@@ -19,25 +19,38 @@ Two layers, and the arrows point one way:
   and the command line (:mod:`skf_ref.cli`).
 
 The study imports the method, never the reverse: ``import skf_ref`` and a reconstruction
-import neither matplotlib, nor a head model, nor pandas.
+import neither matplotlib, nor a head model, nor pandas. Public names are loaded on first
+use.
 """
 
-from .checks import InputError, InputTypeError
-from .inverse import reconstruct
-from .kalman import StandardizedKalmanFilter
-from .priors import evolution_variance, lead_field_amplitude, prior_variance, priors_from_snr
-from .result import Reconstruction
+import importlib
+
 from .version import __version__
 
-__all__ = [
-    "InputError",
-    "InputTypeError",
-    "StandardizedKalmanFilter",
-    "Reconstruction",
-    "reconstruct",
-    "prior_variance",
-    "evolution_variance",
-    "lead_field_amplitude",
-    "priors_from_snr",
-    "__version__",
-]
+# Public names and the module that defines each: imported on first use, so that importing a
+# submodule (the command line's, say) does not load numpy, scipy and filterpy first.
+_HOMES = {
+    "InputError": "checks",
+    "InputTypeError": "checks",
+    "StandardizedKalmanFilter": "kalman",
+    "Reconstruction": "result",
+    "reconstruct": "inverse",
+    "prior_variance": "priors",
+    "evolution_variance": "priors",
+    "lead_field_amplitude": "priors",
+    "priors_from_snr": "priors",
+}
+
+__all__ = [*_HOMES, "__version__"]
+
+
+def __getattr__(name):
+    if name not in _HOMES:
+        raise AttributeError(f"module 'skf_ref' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{_HOMES[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted({*globals(), *_HOMES})

@@ -14,10 +14,12 @@ import numpy as np
 from scipy import linalg
 
 __all__ = [
+    "MAX_DB",
     "InputError",
     "InputTypeError",
     "check_array",
     "check_choice",
+    "check_db",
     "check_instance",
     "check_int",
     "check_leadfield",
@@ -73,8 +75,8 @@ def check_choice(name, value, allowed):
     return value
 
 
-def check_real(name, value, *, positive=False, nonnegative=False, maximum=None):
-    """A finite real scalar (``bool`` excluded), optionally > 0, >= 0 or <= ``maximum``.
+def check_real(name, value, *, positive=False, nonnegative=False, minimum=None, maximum=None):
+    """A finite real scalar (``bool`` excluded), optionally > 0, >= 0 and in [min, max].
 
     Examples
     --------
@@ -96,8 +98,31 @@ def check_real(name, value, *, positive=False, nonnegative=False, maximum=None):
         raise InputError(f"{name} must be > 0, got {value!r}")
     if nonnegative and value < 0:
         raise InputError(f"{name} must be >= 0, got {value!r}")
+    if minimum is not None and value < minimum:
+        raise InputError(f"{name} must be >= {minimum:g}, got {value!r}")
     if maximum is not None and value > maximum:
         raise InputError(f"{name} must be <= {maximum:g}, got {value!r}")
+    return value
+
+
+#: Largest |level| in dB a parameter may have: 10**(dB/10) stays far inside double range.
+MAX_DB = 300.0
+
+
+def check_db(name, value):
+    """A level in dB (an SNR): finite and within +-:data:`MAX_DB`.
+
+    Examples
+    --------
+    >>> check_db("pm_snr_db", -4000)
+    Traceback (most recent call last):
+    ...
+    skf_ref.checks.InputError: pm_snr_db must be >= -300 dB, got -4000.0
+    """
+    value = check_real(name, value)
+    if abs(value) > MAX_DB:
+        bound = f">= {-MAX_DB:g}" if value < 0 else f"<= {MAX_DB:g}"
+        raise InputError(f"{name} must be {bound} dB, got {value!r}")
     return value
 
 

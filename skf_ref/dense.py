@@ -36,8 +36,10 @@ def _update(x_pred, P_pred, y, L, R):
     try:
         S_chol = linalg.cho_factor(S, lower=True)
     except linalg.LinAlgError as err:
+        eigenvalues = linalg.eigvalsh(S)
         raise linalg.LinAlgError(
-            f"S_t = L P_t|t-1 L^T + R is not positive definite ({err})"
+            "S_t = L P_t|t-1 L^T + R is not positive definite in double precision (eigenvalues "
+            f"from {eigenvalues[0]:.3g} to {eigenvalues[-1]:.3g})"
         ) from err
     # K_t = P_{t|t-1} L^T S_t^{-1}   (a solve with S, never its inverse)   §2.2 (5)
     K = linalg.cho_solve(S_chol, L @ P_pred).T
@@ -79,8 +81,11 @@ def kalman_filter(L, Y, R, A, Q, P0, exponent):
     x, P, total = np.zeros(n), P0, 0.0
     for t in range(T):
         x_pred, P_pred = _predict(x, P, A, Q)
-        x, P, K, S, log_likelihood = _update(x_pred, P_pred, Y[:, t], L, R)
-        P_pred_inv_sqrt = inverse_sqrt(P_pred)
+        try:
+            x, P, K, S, log_likelihood = _update(x_pred, P_pred, Y[:, t], L, R)
+            P_pred_inv_sqrt = inverse_sqrt(P_pred)
+        except linalg.LinAlgError as err:
+            raise linalg.LinAlgError(f"at step {t + 1}: {err}") from err
         w = raw_weights(P_pred_inv_sqrt, K, S)
         weights, z = standardize(w, P_pred_inv_sqrt @ x, exponent)
         total += log_likelihood

@@ -3,7 +3,7 @@
 import numpy as np
 
 from . import dense, kalman, memory, spectral
-from .checks import InputError, check_array, check_choice, check_real
+from .checks import InputError, check_choice, check_real
 from .model import StateSpaceModel
 
 __all__ = ["reconstruct", "SMOOTHERS", "METHODS"]
@@ -114,9 +114,7 @@ def reconstruct(
     model = StateSpaceModel.create(
         L, noise_std=noise_std, noise_cov=noise_cov, theta0=theta0, q=q, transition=transition
     )
-    Y = check_array("Y", Y, (model.n_channels, "n_times"))
-    if Y.shape[1] < 1:
-        raise InputError(f"Y must have at least one time step (column), got shape {Y.shape}")
+    Y = model.check_data(Y)
     exponent = check_real("exponent", exponent, nonnegative=True)
     if memory_limit is not None:
         memory_limit = check_real("memory_limit", memory_limit, positive=True)
@@ -136,7 +134,10 @@ def reconstruct(
     try:
         return path(model, Y, exponent, smoother)
     except np.linalg.LinAlgError as err:
-        raise InputError(
-            f"method={method!r} failed: {err}. The model's covariances lost positive "
-            "definiteness; check the scales of L, noise, theta0 and q"
-        ) from err
+        hint = (
+            ""
+            if problem
+            else "; method='spectral' computes this isotropic model exactly without forming "
+            "these matrices"
+        )
+        raise InputError(f"method={method!r} failed {str(err).rstrip('.')}{hint}") from err

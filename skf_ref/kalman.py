@@ -112,11 +112,14 @@ def run(model, Y, exponent, smoother):
     log_likelihood = 0.0
     for t in range(T):
         kf.predict()
-        kf.update(Y[:, t])
+        try:
+            kf.update(Y[:, t])
+            log_likelihood += kf.log_likelihood
+        except (np.linalg.LinAlgError, ValueError) as err:  # filterpy's S^-1, scipy's logpdf
+            raise np.linalg.LinAlgError(f"at step {t + 1}: filterpy's update: {err}") from err
         f["x_filt"][t], f["z"][t] = kf.x.ravel(), kf.x_standardized
         f["w"][t], f["weights"][t] = kf.raw_weights, kf.weights
         P_filt[t], f["P_pred_inv_sqrt"][t] = kf.P, kf.P_prior_inv_sqrt
-        log_likelihood += kf.log_likelihood
     f["log_likelihood"] = log_likelihood
     # both smoothers through filterpy's rts_smoother method, with the P_{t|t}
     return Reconstruction.from_filter(

@@ -2,7 +2,7 @@
 
 import os
 
-__all__ = ["available_memory", "covariance_memory"]
+__all__ = ["available_memory", "covariance_memory", "require"]
 
 
 def available_memory():
@@ -20,6 +20,31 @@ def available_memory():
     except OSError:
         pass
     return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+
+
+def require(nbytes, what, budget=None):
+    """Raise ``MemoryError`` before allocating ``nbytes`` that do not fit.
+
+    Parameters
+    ----------
+    nbytes : int
+    what : str
+        What the bytes are for, for the message.
+    budget : float, optional
+        Bytes allowed; default the available memory (:func:`available_memory`).
+
+    Examples
+    --------
+    >>> require(2**40, "a test array", budget=2**30)
+    Traceback (most recent call last):
+    ...
+    MemoryError: a test array needs 1.02e+03 GiB, over the 1 GiB available
+    """
+    budget = available_memory() if budget is None else budget
+    if nbytes > budget:
+        raise MemoryError(
+            f"{what} needs {nbytes / 2**30:.3g} GiB, over the {budget / 2**30:.3g} GiB available"
+        )
 
 
 def covariance_memory(n_sources, n_times, method="dense", smoother=None):

@@ -17,6 +17,7 @@ import numpy as np
 
 from .checks import (
     InputError,
+    check_array,
     check_leadfield,
     check_real,
     check_scalar_or_spd,
@@ -25,6 +26,8 @@ from .checks import (
 )
 
 __all__ = ["StateSpaceModel"]
+
+_SMALLEST, _LARGEST = np.finfo(float).tiny, np.finfo(float).max
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,7 +80,15 @@ class StateSpaceModel:
         if (noise_std is None) == (noise_cov is None):
             raise InputError("give exactly one of noise_std (a scalar) or noise_cov (a matrix)")
         if noise_std is not None:
-            R = check_real("noise_std", noise_std, positive=True) ** 2 * np.eye(m)
+            noise_std = check_real("noise_std", noise_std, positive=True)
+            low, high = np.sqrt(_SMALLEST), np.sqrt(_LARGEST)
+            if not low <= noise_std <= high:
+                raise InputError(
+                    f"noise_std must be within [{low:.3g}, {high:.3g}] (its square, the noise "
+                    f"variance, must be a normal double), got {noise_std!r}; give the data in "
+                    "other units"
+                )
+            R = noise_std**2 * np.eye(m)
         else:
             R = check_spd("noise_cov", noise_cov, m)
         theta0 = check_scalar_or_spd("theta0", theta0, n)
@@ -85,6 +96,13 @@ class StateSpaceModel:
         transition = check_transition(transition, n)
         if np.ndim(q) == 0 and q == 0 and np.ndim(transition) == 0 and transition == 0:
             raise InputError("q must be > 0 when transition is 0: P_t|t-1 would be 0")
+        with np.errstate(over="ignore"):
+            predicted = np.float64(np.max(np.abs(transition))) ** 2 * np.max(theta0) + np.max(q)
+        if not predicted <= _LARGEST:
+            raise InputError(
+                "transition, theta0 and q are out of range: the first predicted covariance "
+                "A P_0 A^T + Q overflows"
+            )
         return cls(L=L, R=R, transition=transition, q=q, theta0=theta0)
 
     @property
@@ -96,6 +114,29 @@ class StateSpaceModel:
     def n_sources(self):
         """int : Columns of the lead field (state components)."""
         return self.L.shape[1]
+
+    def check_data(self, Y):
+        """``Y`` as a float array of shape (n_channels, n_times), finite and in range.
+
+        Its squared size in noise standard deviations (the log-likelihood's quadratic form)
+        must fit in double precision.
+
+        Returns
+        -------
+        ndarray, shape (n_channels, n_times)
+        """
+        Y = check_array("Y", Y, (self.n_channels, "n_times"))
+        if Y.shape[1] < 1:
+            raise InputError(f"Y must have at least one time step, got shape {Y.shape}")
+        noise_std = np.sqrt(np.linalg.eigvalsh(self.R)[0])
+        size = np.max(np.abs(Y)) / noise_std
+        if size > 0 and not np.log(size) * 2 + np.log(Y.size) < np.log(_LARGEST):
+            raise InputError(
+                f"Y is out of range for the noise: max|Y| = {np.max(np.abs(Y)):.3g} is "
+                f"{size:.3g} noise standard deviations ({noise_std:.3g}), and the likelihood's "
+                "squared residuals overflow; give Y and the noise in the same units"
+            )
+        return Y
 
     def matrix(self, name):
         """``"transition"``, ``"q"`` or ``"theta0"`` as an (n_sources, n_sources) matrix."""

@@ -1,4 +1,4 @@
-"""Prior parameters from signal-to-noise ratios (spec §4, the paper's eqs. 8-10).
+"""Prior parameters from signal-to-noise ratios (docs/model.md §4; the paper's §3.1 eqs. 8-10).
 
 ::
 
@@ -6,16 +6,31 @@
     q      = 10**(EP/10) * theta0 / K                      EP-SNR = dB(kappa)      (10)
 
 ``N`` is the number of columns of L, ``K`` the number of time steps. dB of an amplitude is
-``20 log10``, so ``theta_tot = 10**(PM/10)`` and ``kappa**2 = 10**(EP/10)``.
+``20 log10``, so ``theta_tot = 10**(PM/10)`` and ``kappa**2 = 10**(EP/10)``. Both SNRs must
+lie within +-300 dB, and the variances they give must be normal doubles: a request outside
+that range is refused, naming the parameter, instead of returning 0 or inf.
 """
 
 import numpy as np
 
-from .checks import check_choice, check_int, check_leadfield, check_real
+from .checks import InputError, check_choice, check_db, check_int, check_leadfield, check_real
 
 __all__ = ["prior_variance", "evolution_variance", "lead_field_amplitude", "priors_from_snr"]
 
 CONVENTIONS = ("gain", "toolbox")
+
+
+def _variance(name, compute, formula):
+    """``compute()`` in double precision if it is a normal double, else an error."""
+    with np.errstate(over="ignore", under="ignore"):
+        value = compute()
+    if not np.finfo(float).tiny <= value <= np.finfo(float).max:
+        raise InputError(
+            f"{name} = {formula} = {value:.3g} is outside double precision: the SNRs or the "
+            "scales of the noise and the lead field are out of range (rescale them, e.g. to "
+            "other units)"
+        )
+    return float(value)
 
 
 def prior_variance(pm_snr_db, noise_std, amplitude, n_sources):
@@ -44,12 +59,16 @@ def prior_variance(pm_snr_db, noise_std, amplitude, n_sources):
     >>> prior_variance(20.0, noise_std=2.0, amplitude=3.0, n_sources=9)
     400.0
     """
-    pm_snr_db = check_real("pm_snr_db", pm_snr_db)
+    pm_snr_db = check_db("pm_snr_db", pm_snr_db)
     noise_std = check_real("noise_std", noise_std, positive=True)
     amplitude = check_real("amplitude", amplitude, positive=True)
     n_sources = check_int("n_sources", n_sources)
     theta_tot = 10 ** (pm_snr_db / 10)
-    return theta_tot * noise_std**2 * amplitude**2 / n_sources
+    return _variance(
+        "theta0",
+        lambda: theta_tot * np.float64(noise_std) ** 2 * np.float64(amplitude) ** 2 / n_sources,
+        "10**(PM/10) sigma^2 amplitude^2 / N",
+    )
 
 
 def evolution_variance(ep_snr_db, theta0, n_steps):
@@ -74,11 +93,13 @@ def evolution_variance(ep_snr_db, theta0, n_steps):
     >>> evolution_variance(20.0, theta0=4.0, n_steps=40)
     10.0
     """
-    ep_snr_db = check_real("ep_snr_db", ep_snr_db)
+    ep_snr_db = check_db("ep_snr_db", ep_snr_db)
     theta0 = check_real("theta0", theta0, positive=True)
     n_steps = check_int("n_steps", n_steps)
     kappa_sq = 10 ** (ep_snr_db / 10)
-    return kappa_sq * theta0 / n_steps
+    return _variance(
+        "q", lambda: kappa_sq * np.float64(theta0) / n_steps, "10**(EP/10) theta0 / K"
+    )
 
 
 def lead_field_amplitude(L, convention="gain"):
@@ -107,10 +128,14 @@ def lead_field_amplitude(L, convention="gain"):
     """
     L = check_leadfield(L)
     check_choice("convention", convention, CONVENTIONS)
-    norms = np.linalg.norm(L, axis=0)
+    # a power of four near max|L|: dividing by it (and by its square root) is exact, and the
+    # norms of L / scale can neither overflow nor underflow to 0
+    exponent = np.frexp(np.max(np.abs(L)))[1]
+    scale = np.ldexp(1.0, exponent + exponent % 2)
+    norms = np.linalg.norm(L / scale, axis=0)
     if convention == "gain":
-        return float(np.sqrt(L.shape[0]) / np.sqrt(np.mean(norms**2)))
-    return float(np.mean(norms**-0.5))
+        return float(np.sqrt(L.shape[0]) / np.sqrt(np.mean(norms**2)) / scale)
+    return float(np.mean(norms**-0.5) / np.sqrt(scale))
 
 
 def priors_from_snr(L, noise_std, pm_snr_db, ep_snr_db, n_steps, convention="gain"):
@@ -150,7 +175,7 @@ def priors_from_snr(L, noise_std, pm_snr_db, ep_snr_db, n_steps, convention="gai
     (1.0, 100.0)
     """
     noise_std = check_real("noise_std", noise_std, positive=True)
-    pm_snr_db = check_real("pm_snr_db", pm_snr_db)
+    pm_snr_db = check_db("pm_snr_db", pm_snr_db)
     amplitude = lead_field_amplitude(L, convention)
     if convention == "toolbox":
         snr_db = -20 * np.log10(noise_std)

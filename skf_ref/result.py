@@ -3,7 +3,7 @@
 import numpy as np
 
 from .checks import InputError, check_array, check_int
-from .standardization import restandardize
+from .standardization import overflow_cause, restandardize
 
 __all__ = ["Reconstruction", "amplitude_from_components", "readonly"]
 
@@ -66,7 +66,9 @@ class Reconstruction:
     read-only. A path may hand any of them over as a zero-argument function instead of an
     array: it is then computed on first access and kept (the spectral path does this, so
     that asking for ``z`` at 150 000 sources does not also materialize four other arrays
-    of the same size). Printing a reconstruction never computes one.
+    of the same size). Printing a reconstruction never computes one. No array or scalar is
+    ever non-finite: a reconstruction that would overflow raises
+    :class:`~skf_ref.InputError` saying which parameter or scale is out of range.
 
     Attributes
     ----------
@@ -114,10 +116,21 @@ class Reconstruction:
         theta0,
         q,
         transition=1.0,
+        diagnose=None,
     ):
         self._arrays = dict(
             z=z, x=x, z_filtered=z_filtered, x_filtered=x_filtered, weights=weights
         )
+        self._diagnose = diagnose
+        if not np.isfinite(log_likelihood):
+            raise InputError(
+                f"the innovation log-likelihood is {log_likelihood}: the data are too large "
+                "for the noise (are Y and the noise in the same units?) or the model's "
+                "covariances overflow"
+            )
+        for name, value in self._arrays.items():
+            if not callable(value):
+                self._check_finite(name, value)
         self.log_likelihood = float(log_likelihood)
         self.n_sources, self.n_times = int(n_sources), int(n_times)
         self.exponent, self.smoother, self.method = float(exponent), smoother, method
@@ -144,6 +157,11 @@ class Reconstruction:
         Returns
         -------
         Reconstruction
+
+        Raises
+        ------
+        skf_ref.InputError
+            If an output is not finite, saying which parameter or scale is out of range.
         """
         f = filtered
         x, z = f["x_filt"], f["z"]
@@ -169,12 +187,19 @@ class Reconstruction:
             theta0=model.theta0,
             q=model.q,
             transition=model.transition,
+            diagnose=lambda: overflow_cause(np.min(f["w"]), exponent),
         )
+
+    def _check_finite(self, name, value):
+        if not np.isfinite(value).all():
+            cause = self._diagnose() if self._diagnose is not None else "scales out of range"
+            raise InputError(f"the reconstruction's {name} is not finite: {cause}")
 
     def _array(self, name):
         value = self._arrays[name]
         if callable(value):
             value = value()
+            self._check_finite(name, value)
         value = self._arrays[name] = readonly(value)
         return value
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .checks import InputError, check_instance, check_int, check_real, check_vector
+from .checks import InputError, check_db, check_instance, check_int, check_real, check_vector
 from .head import HeadModel, make_head_model  # noqa: F401  (make_head_model: issue-4 name)
 from .regions import REGION_RADIUS_MM, region_mask
 from .result import readonly
@@ -287,7 +287,7 @@ def simulate(head, scenario, snr_db, seed):
     head : HeadModel
     scenario : Scenario
     snr_db : float
-        Peak SNR in dB: ``sigma = max|Y_clean| * 10 ** (-snr_db / 20)``.
+        Peak SNR in dB, within +-300: ``sigma = max|Y_clean| * 10 ** (-snr_db / 20)``.
     seed : int or numpy.random.Generator
         Noise seed for ``numpy.random.default_rng``; required, so runs are reproducible.
 
@@ -303,7 +303,7 @@ def simulate(head, scenario, snr_db, seed):
     """
     check_instance("head", head, HeadModel, "a HeadModel (skf_ref.head.make_head_model)")
     check_instance("scenario", scenario, Scenario, "a Scenario (p20n20_scenario)")
-    snr_db = check_real("snr_db", snr_db)
+    snr_db = check_db("snr_db", snr_db)
     if not isinstance(seed, np.random.Generator):
         seed = check_int("seed", seed, minimum=0)
     truth = scenario.dipoles(head)

@@ -39,7 +39,8 @@ and, on the complement of ``U``, the part of ``y~`` that no source explains, ``r
 
 **Smoother gains, §2.3 (4).** ``G_t = P_{t|t} a P_{t+1|t}^{-1} = V diag(gamma_t) V^T
 + beta_t (I - V V^T)`` with ``gamma_t = a p_{t|t} / p_{t+1|t}`` and the scalar
-``beta_t = a c_{t|t} / c_{t+1|t}``.
+``beta_t = a c_{t|t} / c_{t+1|t} = a / (a^2 + q / c_{t|t})``, computed from the ratio
+``q / c`` so that it stays finite when ``c`` grows past the largest float (``|a| > 1``).
 
 - ``"rts-state"``: ``x^s`` stays in ``span V``:
   ``xi^s_t = xi_t + gamma_t (xi^s_{t+1} - a xi_t)``, then §2.2 (6) as above.
@@ -61,8 +62,10 @@ import functools
 import numpy as np
 from scipy import linalg
 
+from . import memory
+from .checks import InputError
 from .result import Reconstruction
-from .standardization import standardization_weights, standardize
+from .standardization import overflow_cause, standardization_weights, standardize
 
 __all__ = ["SpectralModel", "run"]
 
@@ -85,24 +88,36 @@ def _basis(Lw):
     # SVD of the transpose: (n, m) in C order is LAPACK's column-major (m, n), no copy.
     V, s, Ut = linalg.svd(Lw.T, full_matrices=False, lapack_driver="gesdd")
     rank = int(np.sum(s > s[0] * max(Lw.shape) * np.finfo(float).eps))
-    return Ut[:rank].T, s[:rank], V[:, :rank]
+    U, s, V = Ut[:rank].T, s[:rank], V[:, :rank]
+    # The SVD gives each row V_j of V to an absolute accuracy of about eps: a column of L~
+    # much weaker than the others (||l_j|| << s_1) gets a row of size ~||l_j|| / s and only
+    # eps s / ||l_j|| relative accuracy. V_j = l_j^T U diag(1/s) (from L~ = U diag(s) V^T)
+    # is as accurate relative to its own size; for ||l_j|| < s_r its absolute error is at
+    # most the SVD's, so V stays orthonormal to rounding.
+    weak = np.linalg.norm(Lw, axis=0) < s[-1]
+    if weak.any():
+        V[weak] = (Lw[:, weak].T @ U) / s
+    return U, s, V
 
 
 def _covariances(s, a, q, theta0, n_times):
-    """``p_{t|t-1}``, ``p_{t|t}`` (T, r) and ``c_{t|t-1}`` (T,): they do not depend on data."""
-    p_pred, p_filt, c_pred = (
-        np.empty((n_times, len(s))),
-        np.empty((n_times, len(s))),
-        np.empty(n_times),
-    )
-    p, c = np.full(len(s), theta0), theta0
+    """``p_{t|t-1}``, ``p_{t|t}`` (T, r) and ``u_t = q / c_{t|t-1}`` (T,): data-free.
+
+    The complement's variance ``c`` grows as ``a^(2t)`` when ``|a| > 1`` and overflows on
+    long runs; only its ratio to ``q`` enters the smoother (:func:`_rts_gains`), so the
+    recursion carries ``u = q / c`` in [0, 1] instead: ``c' = a^2 c + q`` gives
+    ``u' = u / (a^2 + u)``.
+    """
+    p_pred, p_filt, u = np.empty((n_times, len(s))), np.empty((n_times, len(s))), np.empty(n_times)
+    p = np.full(len(s), theta0)
+    u_next = q / (a**2 * theta0 + q)
     for t in range(n_times):
         # P_{t|t-1} = a^2 P_{t-1|t-1} + q I                            §2.2 (4)
-        p_pred[t], c_pred[t] = a**2 * p + q, a**2 * c + q
+        p_pred[t], u[t] = a**2 * p + q, u_next
         # P_{t|t} = P_{t|t-1} - K S K^T: on span V p / (s^2 p + 1), none on the rest §2.2 (5)
         p = p_filt[t] = p_pred[t] / (s**2 * p_pred[t] + 1)
-        c = c_pred[t]
-    return p_pred, p_filt, c_pred
+        u_next = u[t] / (a**2 + u[t])
+    return p_pred, p_filt, u
 
 
 def _means(s, eta, p_pred, a):
@@ -118,10 +133,11 @@ def _means(s, eta, p_pred, a):
     return xi, quadratic
 
 
-def _rts_gains(p_pred, p_filt, c_pred, a):
+def _rts_gains(p_pred, p_filt, u, a):
     """gamma_t (T-1, r) on span V and the scalar beta_t (T-1,) on its complement."""
     gamma = a * p_filt[:-1] / p_pred[1:]
-    beta = a * c_pred[:-1] / c_pred[1:]  # c_{t|t} = c_{t|t-1}
+    # beta_t = a c_{t|t} / c_{t+1|t} = a c_t / (a^2 c_t + q) = a / (a^2 + u_t)
+    beta = a / (a**2 + u[:-1])
     return gamma, beta
 
 
@@ -143,6 +159,7 @@ def _by_columns(n, T, fill):
 
     ``work`` is a contiguous (T, chunk) scratch array, the same memory for every chunk.
     """
+    memory.require(8 * n * T, f"a ({n}, {T}) output array")
     out = np.empty((T, n))
     step = max(1, _CHUNK_BYTES // (8 * T))
     work = np.empty(T * min(step, n))
@@ -182,7 +199,7 @@ class SpectralModel:
     def __init__(self, model, n_times):
         problem = model.isotropic_problem()
         if problem:
-            raise ValueError(
+            raise InputError(
                 f"the spectral path needs A = a I, Q = q I, P_0 = theta0 I: {problem}"
             )
         a, q, theta0 = (model.scalar(name) for name in ("transition", "q", "theta0"))
@@ -191,10 +208,23 @@ class SpectralModel:
         self._whiten, self._log_det_C = _whitener(model.R)
         self.U, self.s, self.V = _basis(self._whiten(model.L))
         self._V_squared = self.V**2
-        self.p_pred, self.p_filt, self.c_pred = _covariances(self.s, a, q, theta0, n_times)
+        self.p_pred, self.p_filt, self._u = _covariances(self.s, a, q, theta0, n_times)
         # w = (V o V) omega, omega = s^2 p / (s^2 p + 1)               §2.2 (7)
         self.omega = self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)
         self._log_det_S = np.sum(np.log(self.s**2 * self.p_pred + 1))
+        self._check_range()
+
+    def _check_range(self):
+        """Refuse, before any output, a model whose covariances leave double precision."""
+        if not (np.isfinite(self.p_pred).all() and np.isfinite(self._log_det_S)):
+            raise InputError(
+                f"the predicted covariance overflows: theta0={self.model.theta0:g}, "
+                f"q={self.model.q:g} and transition={self.a:g} are out of range at this lead "
+                f"field's scale (largest whitened singular value {self.s[0]:.3g}); rescale L, "
+                "the noise or the priors"
+            )
+        if not self.omega.min() > 0:
+            raise InputError(overflow_cause(self.omega.min(), 0.0))
 
     @property
     def rank(self):
@@ -241,8 +271,9 @@ class SpectralModel:
             Its arrays are computed on first access.
         """
         m, T, a = self.n_channels, self.n_times, self.a
+        Y = self.model.check_data(Y)
         if Y.shape != (m, T):
-            raise ValueError(f"Y must have shape ({m}, {T}), got {Y.shape}")
+            raise InputError(f"Y must have shape ({m}, {T}), got {Y.shape}")
         Yw = self._whiten(Y)
         eta = Yw.T @ self.U  # (T, r)
         rho_sq = np.sum((Yw - self.U @ eta.T) ** 2)  # data outside span U
@@ -251,7 +282,7 @@ class SpectralModel:
         z_filtered = functools.cache(lambda: self._standardized(xi, exponent)[0])
         x_filtered = functools.cache(lambda: self._expand(xi))
         x, z = x_filtered, z_filtered
-        gamma, beta = _rts_gains(self.p_pred, self.p_filt, self.c_pred, a)
+        gamma, beta = _rts_gains(self.p_pred, self.p_filt, self._u, a)
         if smoother == "rts-state":
             xi_s = _backward(xi, gamma, a)
             x = functools.cache(lambda: self._expand(xi_s))
@@ -278,6 +309,15 @@ class SpectralModel:
             theta0=self.model.theta0,
             q=self.model.q,
             transition=self.model.transition,
+            diagnose=lambda: overflow_cause(self._min_raw_weight(), exponent),
+        )
+
+    def _min_raw_weight(self):
+        """The smallest raw weight over every source and step (only to explain a failure)."""
+        step = max(1, _CHUNK_BYTES // (8 * self.n_times))
+        return min(
+            np.min(self.omega @ self._V_squared[start : start + step].T)
+            for start in range(0, self.n_sources, step)
         )
 
     def _weights(self, exponent):

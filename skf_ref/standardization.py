@@ -11,6 +11,7 @@ from scipy import linalg
 
 __all__ = [
     "inverse_sqrt",
+    "overflow_cause",
     "raw_weights",
     "restandardize",
     "standardization_weights",
@@ -48,14 +49,16 @@ def raw_weights(P_pred_inv_sqrt, K, S):
 def standardization_weights(w, exponent, out=None):
     """The diagonal of ``W_t^(alpha) = Diag(w_t)^(-alpha)``, §2.2 eq. (7).
 
-    ``out`` (which may be ``w`` itself) receives the result.
+    ``out`` (which may be ``w`` itself) receives the result. An overflow gives ``inf``
+    without a warning; the result type refuses it with the cause (:func:`overflow_cause`).
 
     Examples
     --------
     >>> standardization_weights(np.array([0.25, 4.0]), 0.5).tolist()
     [2.0, 0.5]
     """
-    return np.power(w, -exponent, out=out)
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        return np.power(w, -exponent, out=out)
 
 
 def standardize(w, whitened, exponent, out=None, overwrite_w=False):
@@ -91,6 +94,43 @@ def standardize(w, whitened, exponent, out=None, overwrite_w=False):
     weights = standardization_weights(w, exponent, out=w if overwrite_w else None)
     # z = W_t^(alpha) P^{-1/2} x                                            (6)
     return weights, np.multiply(weights, whitened, out=out)
+
+
+def overflow_cause(w_min, exponent):
+    """Why ``W_t = w_t^-exponent`` (7) or ``z`` overflowed, from the smallest raw weight.
+
+    Parameters
+    ----------
+    w_min : float
+        The smallest raw weight ``w_t`` of the run.
+    exponent : float
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> print(overflow_cause(1e-20, 1e3))
+    exponent=1000 is too large for these weights: w_t reaches 1e-20 and w_t**-exponent
+    overflows above exponent 15.4
+    """
+    if not w_min > 0:
+        return (
+            f"the raw weights w_t of eq. (7) reach {w_min:.3g}: in double precision the lead "
+            "field is too weak against the noise at these priors (rescale L or the noise, "
+            "e.g. to other units), or the covariances are too ill-conditioned"
+        )
+    limit = np.log(np.finfo(float).max) / -np.log(w_min) if w_min < 1 else np.inf
+    if exponent > limit:
+        return (
+            f"exponent={exponent:g} is too large for these weights: w_t reaches {w_min:.3g} "
+            f"and w_t**-exponent overflows above exponent {limit:.3g}"
+        )
+    return (
+        "the scales of Y, L, the noise and the priors are out of the range of double "
+        "precision: rescale them (e.g. to other units)"
+    )
 
 
 def restandardize(w, P_pred_inv_sqrt, x, exponent):
@@ -144,8 +184,9 @@ def inverse_sqrt(P):
     [[0.5, 0.0], [0.0, 2.0]]
     """
     eigenvalues, eigenvectors = linalg.eigh(P)
-    if eigenvalues[0] <= 0:
+    if not eigenvalues[0] > 0:
         raise np.linalg.LinAlgError(
-            f"P_t|t-1 is not positive definite (smallest eigenvalue {eigenvalues[0]:.3g})"
+            "P_t|t-1 is not positive definite in double precision (eigenvalues from "
+            f"{eigenvalues[0]:.3g} to {eigenvalues[-1]:.3g})"
         )
     return (eigenvectors / np.sqrt(eigenvalues)) @ eigenvectors.T

@@ -1,22 +1,23 @@
 """The ``skf-ref`` command line.
 
 A user's mistake (a bad option, an unreadable file, input the package refuses) prints one
-line naming the flag or file and exits with status 2; Ctrl-C prints one line and exits with
-130; files appear whole or not at all (written to a hidden temporary in the same folder,
-then renamed). Anything else is a bug in the package and shows its traceback. ``--debug``
-shows the traceback of every error.
+line naming the flag or file and exits with status 2; Ctrl-C, at any moment, prints one line
+and exits with 130; files appear whole or not at all (written to a hidden temporary in the
+same folder, then renamed). Anything else is a bug in the package and shows its traceback.
+``--debug`` shows the traceback of every error.
+
+This module imports nothing heavy at import time, so that Ctrl-C while numpy, scipy or MNE
+load is an interruption like any other.
 """
 
 import os
 import re
+import signal
 import sys
 
-from ..checks import InputError
-from ..version import __version__
-from . import demo, sweep
-from ._args import Parser
+__all__ = ["build_parser", "console", "main"]
 
-__all__ = ["build_parser", "main"]
+_INTERRUPTED = "skf-ref: interrupted; files already written are complete"
 
 
 def build_parser():
@@ -26,6 +27,10 @@ def build_parser():
     -------
     argparse.ArgumentParser
     """
+    from ..version import __version__
+    from . import demo, sweep
+    from ._args import Parser
+
     parser = Parser(
         prog="skf-ref",
         description="Standardized Kalman filter (SKF) for EEG source localization: the "
@@ -42,7 +47,7 @@ def build_parser():
 
 
 def _debug_asked(argv):
-    return "--debug" in argv[: argv.index("--")] if "--" in argv else "--debug" in argv
+    return "--debug" in (argv[: argv.index("--")] if "--" in argv else argv)
 
 
 def main(argv=None):
@@ -59,27 +64,48 @@ def main(argv=None):
         0 on success, 2 on a usage or input error, 130 when interrupted.
     """
     argv = sys.argv[1:] if argv is None else list(argv)
-    parser = build_parser()
+    mistakes = (OSError, MemoryError)
     try:
+        from ..checks import InputError
+
+        mistakes = (InputError, OSError, MemoryError)
+        parser = build_parser()
         args = parser.parse_args(argv)
         if args.command is None:
             parser.print_help()
             return 0
         os.environ.setdefault("MPLBACKEND", "Agg")
         args.run(args)
-    except SystemExit as exit_:  # --help and --version
+    except KeyboardInterrupt:
+        if _debug_asked(argv):
+            raise
+        print(_INTERRUPTED, file=sys.stderr)
+        return 130
+    except SystemExit as exit_:  # --help, --version, and the sweep's own interruption
         return exit_.code if isinstance(exit_.code, int) else 0
-    except (InputError, OSError, MemoryError) as err:
+    except mistakes as err:
         if _debug_asked(argv):
             raise
         print(f"skf-ref: error: {_one_line(err)}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        if _debug_asked(argv):
-            raise
-        print("skf-ref: interrupted; files already written are complete", file=sys.stderr)
-        return 130
     return 0
+
+
+def _interrupted_late(signum, frame):
+    print(_INTERRUPTED, file=sys.stderr)
+    os._exit(130)
+
+
+def console():
+    """The ``skf-ref`` console script: :func:`main`, then exit with its status.
+
+    Once :func:`main` has returned, every file is written and closed; Ctrl-C while the
+    interpreter shuts down (joblib's workers stopping) ends at once with one line and 130.
+    """
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    status = main()
+    signal.signal(signal.SIGINT, _interrupted_late)
+    sys.exit(status)
 
 
 def _one_line(err):

@@ -1,7 +1,5 @@
 """``python -m skf_ref.cli``: the same as ``skf-ref``."""
 
-import sys
+from . import console
 
-from . import main
-
-sys.exit(main())
+console()

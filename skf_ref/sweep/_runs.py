@@ -1,7 +1,12 @@
 """Sweep runs: one group of runs on one prepared model, and the sweep over a grid."""
 
+import ctypes
+import ctypes.util
 import itertools
 import math
+import multiprocessing
+import signal
+import sys
 
 from ..checks import InputError, check_int
 from ..provenance import blas_threads, package_versions
@@ -9,6 +14,19 @@ from ._grid import AXES, GROUP, check_grid, row_key, smoother_label
 from ._results import ResultsFile, read_results
 
 __all__ = ["run_group", "run_on_head", "run_sweep"]
+
+
+def _die_with_parent():
+    """In a worker process on Linux: be terminated when the process that started it dies.
+
+    A sweep killed with SIGKILL cannot stop its joblib (loky) workers; without this they
+    would run on as orphans until their idle timeout.
+    """
+    if sys.platform != "linux" or multiprocessing.current_process().name == "MainProcess":
+        return
+    libc = ctypes.CDLL(ctypes.util.find_library("c"), use_errno=True)
+    pr_set_pdeathsig = 1
+    libc.prctl(pr_set_pdeathsig, signal.SIGTERM)
 
 
 def run_group(snr_db, ep_snr_db, pm_snr_db, runs, n_positions=3000, montage="biosemi64"):
@@ -28,6 +46,7 @@ def run_group(snr_db, ep_snr_db, pm_snr_db, runs, n_positions=3000, montage="bio
     """
     from ..head import make_head_model
 
+    _die_with_parent()
     head = make_head_model(n_positions, montage)
     return run_on_head(head, snr_db, ep_snr_db, pm_snr_db, runs)
 
