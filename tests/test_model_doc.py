@@ -1,0 +1,178 @@
+"""docs/model.md cannot rot: its worked example runs, prints what it shows, and agrees.
+
+Every ```python block of the document is executed, in order, in one namespace; what a block
+prints must equal the ```text block right after it (a block with no such text block must
+print nothing). The numbers are then checked again as numbers, not as printed text.
+"""
+
+import contextlib
+import importlib
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+DOC = Path(__file__).resolve().parent.parent / "docs" / "model.md"
+
+# A fenced block: opening fence (maybe indented, with a language), body, closing fence.
+FENCE = re.compile(
+    r"^(?P<indent> *)```(?P<lang>\w*)\n(?P<body>.*?)^(?P=indent)```[ \t]*$", re.M | re.S
+)
+
+# The filterpy path and the dense path compute the same algebra in a different floating-point
+# order: filterpy forms S_t^{-1} explicitly, updates P in Joseph form and inverts P_{t+1|t}
+# in its smoother; the dense path uses Cholesky solves and P - K S K^T. Their differences
+# are a few units of eps (2.2e-16) times the condition numbers, which the example keeps
+# below 20 (asserted below), so about 1e-14 at most; 1e-12 leaves room for other
+# BLAS/LAPACK builds, while a real difference in the algebra (a wrong covariance, a missing
+# transpose) would change the numbers in their leading digits.
+RTOL = 1e-12
+MAX_CONDITION = 20.0
+
+# The sections the code cites as "docs/model.md §N".
+SECTIONS = (1, 2, 3, 4, 5, 6, 7, 8)
+
+# Modules whose names the document uses relative to the package ("dense.rts").
+MODULES = (
+    "checks",
+    "dense",
+    "head",
+    "inverse",
+    "kalman",
+    "metrics",
+    "model",
+    "priors",
+    "regions",
+    "result",
+    "simulate",
+    "spectral",
+    "standardization",
+)
+
+
+def _blocks(text):
+    return [(m["lang"], m["body"], m.start(), m.end()) for m in FENCE.finditer(text)]
+
+
+def _examples(text):
+    """(code, expected output) for every python block, in document order."""
+    blocks = _blocks(text)
+    pairs = []
+    for i, (lang, body, _, end) in enumerate(blocks):
+        if lang != "python":
+            continue
+        expected = ""
+        if i + 1 < len(blocks):
+            next_lang, next_body, next_start, _ = blocks[i + 1]
+            if next_lang == "text" and not text[end:next_start].strip():
+                expected = next_body
+        pairs.append((body, expected))
+    return pairs
+
+
+def _lines(output):
+    return [line.rstrip() for line in output.rstrip("\n").splitlines()]
+
+
+@pytest.fixture(scope="module")
+def text():
+    return DOC.read_text(encoding="utf-8")
+
+
+@pytest.fixture(scope="module")
+def run(text):
+    """Execute the examples; return the namespace and (printed, expected) per block."""
+    namespace = {"__name__": "docs_model_example"}
+    outputs = []
+    with np.printoptions():  # the example sets print options; restore them afterwards
+        for number, (code, expected) in enumerate(_examples(text), start=1):
+            printed = io.StringIO()
+            with contextlib.redirect_stdout(printed):
+                exec(compile(code, f"docs/model.md, python block {number}", "exec"), namespace)
+            outputs.append((printed.getvalue(), expected))
+    return namespace, outputs
+
+
+def test_sections_the_code_cites_exist_in_order(text):
+    headings = [int(n) for n in re.findall(r"^## (\d+)\. ", text, re.M)]
+    assert headings[: len(SECTIONS)] == list(SECTIONS)
+
+
+def test_example_has_python_blocks_each_with_its_output(text):
+    examples = _examples(text)
+    assert len(examples) >= 5
+    assert all(expected for _, expected in examples), "a python block lacks its text block"
+
+
+def test_printed_output_is_the_documented_output(run):
+    _, outputs = run
+    for number, (printed, expected) in enumerate(outputs, start=1):
+        assert _lines(printed) == _lines(expected), f"python block {number}"
+
+
+def test_filterpy_and_dense_agree_numerically(run):
+    ns, _ = run
+    f, fp = ns["f"], ns["fp"]
+    # the tolerance's premise: well-conditioned matrices
+    assert max(np.linalg.cond(S) for S in fp["S"]) < MAX_CONDITION
+    assert max(np.linalg.cond(P) for P in f["P_pred"]) < MAX_CONDITION
+    for key in ("P_pred", "x_filt", "P_filt", "P_pred_inv_sqrt", "w", "weights", "z"):
+        np.testing.assert_allclose(fp[key], f[key], rtol=0, atol=RTOL * np.abs(f[key]).max())
+    assert ns["log_likelihood"] == pytest.approx(f["log_likelihood"], rel=RTOL)
+    # both smoothers, filterpy's method against dense.rts
+    np.testing.assert_allclose(ns["s_fp"], ns["s"], rtol=0, atol=RTOL * np.abs(ns["s"]).max())
+    x_s = ns["x_s"]
+    np.testing.assert_allclose(ns["x_s_fp"], x_s, rtol=0, atol=RTOL * np.abs(x_s).max())
+
+
+def test_last_smoothed_z_is_last_filtered_z(run):
+    ns, _ = run
+    z_filtered = ns["f"]["z"][-1]
+    # the backward pass starts from the last filtered value and never rewrites it
+    np.testing.assert_array_equal(ns["s"][-1], z_filtered)
+    np.testing.assert_array_equal(ns["s_fp"][-1], ns["fp"]["z"][-1])
+    np.testing.assert_array_equal(ns["x_s"][-1], ns["f"]["x_filt"][-1])
+    # "rts-state" re-applies the filter's own W_T P_{T|T-1}^{-1/2} to the same x_{T|T}, by
+    # a different product (einsum against @): equal up to the last bits
+    np.testing.assert_allclose(ns["z_s"][-1], z_filtered, rtol=4 * np.finfo(float).eps)
+
+
+def test_smoothers_differ_before_the_last_step(run):
+    # the document's point in section 3: the two smoothers are not the same estimator
+    ns, _ = run
+    assert np.abs(ns["s"][0] - ns["z_s"][0]).max() > 1e-2
+
+
+def _resolve(name):
+    """The object a dotted name like ``dense.rts`` or ``KalmanFilter.update`` refers to.
+
+    Names start with ``skf_ref``, one of its modules (relative to the package),
+    ``filterpy``, or ``KalmanFilter`` (filterpy's, which the subclass extends).
+    """
+    parts = name.split(".")
+    if parts[0] == "KalmanFilter":
+        parts = ["filterpy", "kalman", *parts]
+    elif parts[0] not in ("skf_ref", "filterpy"):
+        parts = ["skf_ref", *parts]
+    for split in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:split]))
+        except ModuleNotFoundError:
+            continue
+        for attribute in parts[split:]:
+            obj = getattr(obj, attribute)
+        return obj
+    raise ModuleNotFoundError(name)
+
+
+def test_every_package_name_in_the_document_exists(text):
+    prefixes = "|".join(("skf_ref", "filterpy", "KalmanFilter", *MODULES))
+    names = set(re.findall(rf"`((?:{prefixes})(?:\.[A-Za-z_]\w*)+)`", text))
+    assert len(names) > 30
+    for name in sorted(names):
+        try:
+            _resolve(name)
+        except (AttributeError, ModuleNotFoundError) as err:
+            pytest.fail(f"docs/model.md names `{name}`, which does not exist ({err})")
