@@ -81,6 +81,7 @@ class StandardizedKalmanFilter(KalmanFilter):
             self.weights = np.full(self.dim_x, np.nan)
             self.x_standardized = np.full(self.dim_x, np.nan)
             self.raw_weights = np.full(self.dim_x, np.nan)
+            self.P_prior_inv_sqrt = np.full((self.dim_x, self.dim_x), np.nan)
             return
         self.P_prior_inv_sqrt = inverse_sqrt(P_prior)
         self.raw_weights = raw_weights(self.P_prior_inv_sqrt, self.K, self.S)

@@ -226,7 +226,8 @@ class Simulation:
     Attributes
     ----------
     Y : ndarray, shape (n_channels, n_times)
-        Noisy data in V, average referenced.
+        Noisy data in V: the average-referenced ``Y_clean`` plus white noise (the noise
+        is not re-referenced; it is what ``R = sigma**2 I`` assumes).
     Y_clean : ndarray, shape (n_channels, n_times)
         Noise-free data in V: the exact dipoles' forward field times their waveforms.
     sigma : float
