@@ -12,12 +12,24 @@ SMOOTHERS = (None, "rts-standardized", "rts-state")
 METHODS = ("auto", "filterpy", "dense", "spectral")
 
 
-def _check_memory(method, smoother, n_sources, n_times, memory_limit):
-    needed = memory.covariance_memory(n_sources, n_times, method, smoother)
+def _check_memory(method, smoother, model, n_times, memory_limit):
+    """Refuse, before any work, a run that does not fit in the memory budget."""
+    n, m = model.n_sources, model.n_channels
     budget = memory.available_memory() / 2 if memory_limit is None else memory_limit
+    if method == "spectral":
+        needed = memory.spectral_memory(n, m, n_times)
+        if needed > budget:
+            raise MemoryError(
+                f"method='spectral' needs about {needed / 2**30:.3g} GiB for its model and "
+                f"one ({n}, {n_times}) output, over the memory budget of "
+                f"{budget / 2**30:.3g} GiB (memory_limit; default half the available "
+                "memory); reconstruct shorter segments of the data"
+            )
+        return
+    needed = memory.covariance_memory(n, n_times, method, smoother)
     if needed > budget:
         raise MemoryError(
-            f"method={method!r} stores {n_times} covariances of {n_sources}^2 entries: about "
+            f"method={method!r} stores {n_times} covariances of {n}^2 entries: about "
             f"{needed / 2**30:.3g} GiB, over the memory budget of {budget / 2**30:.3g} GiB "
             "(memory_limit; default half the available memory). For random-walk models with "
             "isotropic priors use method='spectral', which never forms an n_sources^2 matrix."
@@ -86,7 +98,10 @@ def reconstruct(
     transition : float or array_like, shape (n_sources, n_sources)
         ``A = transition * I`` for a scalar (1: random walk, §3.1 eq. 8), else the matrix.
     memory_limit : float, optional
-        Bytes the covariance-storing paths may use; default half the available memory.
+        Bytes the reconstruction may use; default half the available memory. Checked
+        before any work: the covariance-storing paths need ``8 n^2 (k T + 8)`` bytes, the
+        spectral path ``8 n (4 m + T)`` for its model and one output (each further output
+        asked for ``8 n T`` more, checked when it is asked for).
 
     Returns
     -------
@@ -123,13 +138,11 @@ def reconstruct(
     problem = model.isotropic_problem()
     if method == "auto":
         method = "dense" if problem else "spectral"
+    if method == "spectral" and problem:
+        raise InputError(f"method='spectral' needs A = a I, Q = q I, P_0 = theta0 I: {problem}")
+    _check_memory(method, smoother, model, Y.shape[1], memory_limit)
     if method == "spectral":
-        if problem:
-            raise InputError(
-                f"method='spectral' needs A = a I, Q = q I, P_0 = theta0 I: {problem}"
-            )
         return spectral.run(model, Y, exponent, smoother)
-    _check_memory(method, smoother, model.n_sources, Y.shape[1], memory_limit)
     path = kalman.run if method == "filterpy" else dense.run
     try:
         return path(model, Y, exponent, smoother)

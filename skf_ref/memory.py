@@ -2,7 +2,7 @@
 
 import os
 
-__all__ = ["available_memory", "covariance_memory", "require"]
+__all__ = ["available_memory", "covariance_memory", "require", "spectral_memory"]
 
 
 def available_memory():
@@ -31,20 +31,45 @@ def require(nbytes, what, budget=None):
     what : str
         What the bytes are for, for the message.
     budget : float, optional
-        Bytes allowed; default the available memory (:func:`available_memory`).
+        Bytes allowed; default half the memory available now (:func:`available_memory`).
 
     Examples
     --------
     >>> require(2**40, "a test array", budget=2**30)
     Traceback (most recent call last):
     ...
-    MemoryError: a test array needs 1.02e+03 GiB, over the 1 GiB available
+    MemoryError: a test array needs 1.02e+03 GiB, over the memory budget of 1 GiB
     """
-    budget = available_memory() if budget is None else budget
+    if budget is None:
+        budget, whose = available_memory() / 2, " (half the memory available now)"
+    else:
+        whose = ""
     if nbytes > budget:
         raise MemoryError(
-            f"{what} needs {nbytes / 2**30:.3g} GiB, over the {budget / 2**30:.3g} GiB available"
+            f"{what} needs {nbytes / 2**30:.3g} GiB, over the memory budget of "
+            f"{budget / 2**30:.3g} GiB{whose}"
         )
+
+
+def spectral_memory(n_sources, n_channels, n_times):
+    """Bytes the spectral path needs to prepare its model and form one output array.
+
+    Parameters
+    ----------
+    n_sources, n_channels, n_times : int
+
+    Returns
+    -------
+    int
+        ``8 n (4 m + T)``: ``V`` and ``V o V`` (n x r each, r <= m), about as much again for
+        the SVD, and one (n, T) output; each further output asked for needs ``8 n T`` more.
+
+    Examples
+    --------
+    >>> spectral_memory(150_000, 128, 1000) / 2**30  # GiB
+    1.66...
+    """
+    return 8 * n_sources * (4 * n_channels + n_times)
 
 
 def covariance_memory(n_sources, n_times, method="dense", smoother=None):

@@ -105,6 +105,12 @@ def console():
     signal.signal(signal.SIGINT, signal.default_int_handler)
     status = main()
     signal.signal(signal.SIGINT, _interrupted_late)
+    if status == 130:
+        # CPython remembers an interruption caught inside some imports and would end the
+        # process by SIGINT (status -2) however it was handled; every file is complete
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130)
     sys.exit(status)
 
 

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import memory
 from ..files import atomic_path
 from ._args import db, integer, nonnegative, progress
 
@@ -111,6 +112,8 @@ def run(args):
     from .. import metrics, simulate
 
     head_model.check_montage(args.montage)
+    outputs = 3 * memory.spectral_memory(3 * args.positions, 64, 41)
+    head_model.check_size(args.positions, args.montage, extra=outputs, name="--positions")
     with progress(args, "head model"):
         head = head_model.make_head_model(args.positions, args.montage)
     scenario = simulate.p20n20_scenario()

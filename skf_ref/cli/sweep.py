@@ -93,6 +93,7 @@ def run(args):
                 n_positions=args.positions,
                 montage=args.montage,
                 progress=not args.quiet,
+                size_name="--positions",
             )
         except KeyboardInterrupt:
             print(

@@ -133,6 +133,7 @@ def run_sweep(
     backend=None,
     progress=True,
     runs_per_task=24,
+    size_name="n_positions",
 ):
     """Run every point of a grid not yet in ``out``, appending one row per run.
 
@@ -155,6 +156,8 @@ def run_sweep(
     runs_per_task : int
         Runs of one group handed to a worker at once: rows reach the file after each task,
         so this bounds what an interruption can lose; each task prepares its model once.
+    size_name : str
+        How errors name ``n_positions`` (the command line says ``--positions``).
 
     Returns
     -------
@@ -164,7 +167,7 @@ def run_sweep(
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm
 
-    from ..head import check_montage, grid_size
+    from ..head import check_montage, check_size, grid_size
 
     grid = check_grid(grid)
     runs_per_task = check_int("runs_per_task", runs_per_task, minimum=1)
@@ -172,6 +175,7 @@ def run_sweep(
     if n_jobs == 0:
         raise InputError("n_jobs must be a positive number of workers or -1 (all cores), got 0")
     check_montage(montage)
+    check_size(n_positions, montage, name=size_name)
     n_actual = grid_size(n_positions)
     with ResultsFile(out) as results:
         done = {row_key(row) for _, row in results.existing.iterrows()}
