@@ -1,4 +1,4 @@
-"""Reproduce the paper's findings (shared/SKF_SPEC.md §7) under decision rules fixed in advance.
+"""Reproduce the paper's findings (docs/model.md §7) under decision rules fixed in advance.
 
 ``python -m validation.reproduce [--quick] [--out DIR] [--jobs N] [--fresh]``
 ``[--seeds N] [--n-positions N] [--fine-step DB]``
