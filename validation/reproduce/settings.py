@@ -23,6 +23,7 @@ __all__ = [
     "MONTAGE",
     "NOISE_LEVELS",
     "QUICK",
+    "QUICK_OUT",
     "RANKED_EXPONENTS",
     "RESULTS",
     "SMOOTHED",
@@ -57,7 +58,11 @@ FINE_RANGE = (-20.0, 40.0)
 TIE_MM = 1e-6
 VERDICTS = ("reproduced", "partly", "not reproduced")
 MONTAGE = "biosemi64"
+#: The committed report folder: only the full preset writes here.
 DEFAULT_OUT = Path(__file__).resolve().parent.parent / "report"
+#: Default folder of any other run (``--quick``, or a preset overridden): relative to the
+#: current directory, untracked (``.gitignore``), so a trial run never replaces the report.
+QUICK_OUT = Path("reproduce-quick")
 RESULTS = ("paper_grid.csv", "fine_grid.csv")
 MANIFEST = "settings.json"
 
@@ -107,6 +112,11 @@ class Settings:
             )
             for exponent, smoother in (TUNING, SMOOTHED)
         ]
+
+    def is_full(self):
+        """Whether these are the full preset's settings: the only ones the committed report
+        folder (:data:`DEFAULT_OUT`) may hold."""
+        return self == FULL
 
     def command(self):
         """The command line that regenerates these results (without --out and --jobs)."""
