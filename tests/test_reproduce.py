@@ -478,3 +478,23 @@ def test_evaluate_on_a_full_table_gives_six_findings():
     findings = rp.evaluate(table)
     assert [f.number for f in findings] == [1, 2, 3, 4, 5, 6]
     assert all(f.verdict in VERDICTS for f in findings)
+
+
+def test_blas_order_does_not_change_the_outputs(monkeypatch):
+    # threadpoolctl lists the BLAS libraries in an order that varies between processes;
+    # the manifest and the results files must not depend on it.
+    from validation.reproduce import cli, settings
+
+    libraries = [
+        {"library": "openblas", "version": "0.3.31", "threads": 2, "threading_layer": "pthreads"},
+        {"library": "openblas", "version": "0.3.30", "threads": 2, "threading_layer": "pthreads"},
+    ]
+    manifests = []
+    for order in (libraries, libraries[::-1]):
+        monkeypatch.setattr(settings, "blas_threads", lambda order=order: list(order))
+        manifests.append(settings.manifest(FULL)["blas"])
+    assert manifests[0] == manifests[1]
+    assert cli._sorted_words("openblas-0.3.31 openblas-0.3.30") == cli._sorted_words(
+        "openblas-0.3.30 openblas-0.3.31"
+    )
+    assert cli._sorted_words("none") == "none"

@@ -114,9 +114,22 @@ def _sorted_rewrite(path):
 
     table = read_results(path)
     table = table.sort_values(list(KEY), kind="stable", ignore_index=True)
+    if "blas" in table:
+        table["blas"] = table["blas"].map(_sorted_words)
     with atomic_path(path) as tmp:
         table.to_csv(tmp, index=False, lineterminator="\n")
     return table
+
+
+def _sorted_words(value):
+    """The words of a ``blas`` cell in sorted order.
+
+    ``skf_ref.provenance.blas_threads`` lists the loaded BLAS libraries in an order that
+    varies from process to process (threadpoolctl's order follows the string hash seed), so
+    sweep rows computed by different workers name the same libraries in different orders.
+    Sorting them keeps the results files regenerable byte for byte.
+    """
+    return " ".join(sorted(value.split())) if isinstance(value, str) else value
 
 
 # --------------------------------------------------------------------------- arguments

@@ -7,6 +7,7 @@ here runs a sweep.
 from __future__ import annotations
 
 import hashlib
+import json
 import platform
 from dataclasses import dataclass
 from pathlib import Path
@@ -169,6 +170,8 @@ def manifest(settings):
         n_positions=settings.n_positions,
         montage=MONTAGE,
         versions=_versions(),
-        blas=blas_threads(),
+        # sorted: blas_threads' order varies from process to process (threadpoolctl's
+        # order follows the string hash seed), which would make every rerun look stale
+        blas=sorted(blas_threads(), key=lambda b: json.dumps(b, sort_keys=True)),
         skf_ref_sources_sha256=_source_digest(),
     )
