@@ -115,8 +115,7 @@ class Settings:
         ]
 
     def is_full(self):
-        """Whether these are the full preset's settings: the only ones the committed report
-        folder (:data:`DEFAULT_OUT`) may hold."""
+        """Whether these are the full preset's settings, the only ones DEFAULT_OUT holds."""
         return self == FULL
 
     def command(self):
