@@ -3,6 +3,7 @@
 No timing is asserted here: performance targets live in validation/bench.py's output.
 """
 
+import pandas as pd
 import pytest
 
 from validation import bench
@@ -30,10 +31,56 @@ def test_paths_past_the_memory_guard_are_reported_not_run(monkeypatch):
     assert "not runnable" in bench.to_markdown(table)
 
 
-@pytest.mark.parametrize("argv", [["--size", "300,32"], ["--paths", "gpu"], ["--repeats", "0"]])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--size", "300,32"],
+        ["--paths", "gpu"],
+        ["--repeats", "0"],
+        ["--blas-threads", "0"],
+        ["--blas-threads", "two"],
+        ["--bogus"],
+    ],
+)
 def test_bad_arguments_exit_2(argv, capsys):
     assert bench.main(argv) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_blas_threads_option_is_parsed():
+    assert bench.parse_args([]).blas_threads is None
+    args = bench.parse_args(["--blas-threads", "1", "--size", "300,32,4", "--paths", "spectral"])
+    assert args.blas_threads == 1
+    assert args.sizes == [(300, 32, 4)] and args.paths == ["spectral"]
+    with pytest.raises(ValueError, match="--blas-threads must be at least 1, got 0"):
+        bench.parse_args(["--blas-threads", "0"])
+    with pytest.raises(ValueError, match="invalid int value"):
+        bench.parse_args(["--blas-threads", "two"])
+
+
+def test_blas_threads_are_recorded_beside_every_timing(tmp_path, capsys):
+    out = tmp_path / "bench"
+    argv = ["--blas-threads", "1", "--size", "300,32,4", "--paths", "spectral,mne-sloreta"]
+    assert bench.main([*argv, "--repeats", "1", "--out", str(out)]) == 0
+    table = pd.read_csv(out / "results.csv")
+    assert table["blas_limit"].astype(str).eq("1").all()
+    assert (table["blas_threads"] == 1).all()
+    assert table["blas"].str.contains(r"\(1 thread\)").all()
+    text = (out / "results.md").read_text()
+    assert "BLAS (threadpoolctl, while timing):" in text
+    assert "limited to 1 by `--blas-threads 1`" in text
+    assert "| BLAS threads |" in text
+    # the limit applies to the run only
+    assert bench.blas_columns()["blas_limit"] == "none"
+
+
+def test_unlimited_run_records_the_libraries_own_threads():
+    table = bench.benchmark(
+        sizes=[(300, 32, 4)], paths=("spectral",), repeats=1, progress=lambda line: None
+    )
+    (row,) = table.itertuples()
+    assert row.blas_limit == "none" and row.blas_threads >= 1
+    assert "not limited" in bench.report(table)
 
 
 def test_the_make_row_times_make_inverse_operator(monkeypatch):

@@ -122,8 +122,32 @@ def test_skipped_comparisons_are_reported(monkeypatch):
     assert len(rows) == 2 * len(cc.PATHS)
     assert all(row["skipped"] for row in rows)
     assert all(np.isnan(row[q]) for row in rows for q in cc.QUANTITIES)
-    assert cc.worst(rows) == 0.0
+    assert np.isnan(cc.worst(rows))
+    assert not cc.passed(rows)
     assert "skipped" in cc.format_table(rows)
+
+
+def test_zero_comparisons_fail(monkeypatch, capsys):
+    # Every comparison skipped: nothing was shown, so the run must not pass.
+    monkeypatch.setattr(cc, "qualifies", lambda path, problem: False)
+    problems = cc.make_problems()[:2]
+    monkeypatch.setattr(cc, "make_problems", lambda: problems)
+    assert cc.main([]) == 1
+    out = capsys.readouterr().out
+    summary = out.strip().splitlines()[-2]  # the last line is the wall time
+    assert summary.startswith("no comparison was made")
+    assert summary.endswith("FAIL")
+    assert "PASS" not in out
+
+
+def test_some_skipped_rows_still_pass(monkeypatch, capsys):
+    # Skipped rows beside compared ones keep the old behaviour: the compared ones decide.
+    monkeypatch.setattr(cc, "qualifies", lambda path, problem: path == "filterpy")
+    problems = cc.make_problems()[:2]
+    monkeypatch.setattr(cc, "make_problems", lambda: problems)
+    assert cc.main([]) == 0
+    out = capsys.readouterr().out
+    assert "over 2 compared and 2 skipped" in out and out.strip().splitlines()[-2].endswith("PASS")
 
 
 def test_qualifies_hook():

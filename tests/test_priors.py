@@ -1,4 +1,4 @@
-"""Prior parameters from SNRs (spec §4, the paper's eqs. 8-10): worked numbers and checks."""
+"""Prior parameters from SNRs (docs/model.md §4, the paper's eqs. 8-10): worked numbers, checks."""
 
 import numpy as np
 import pytest

@@ -2,11 +2,14 @@
 
 The decision rules are checked on hand-made sweep tables whose verdicts are known by
 construction; the report itself runs as ``--quick`` (3 seeds, about 1000 positions, a 4 x 4
-fine map) into two folders, which also proves that it regenerates byte for byte.
+fine map) into two folders, which also proves that it regenerates byte for byte. The first
+run takes the default output folder, which must not be the committed report.
 """
 
+import hashlib
 import json
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -18,12 +21,16 @@ import pytest
 from validation import reproduce as rp
 from validation.reproduce.sensitivity import SENSITIVITY, crop_head
 from validation.reproduce.settings import (
+    DEFAULT_OUT,
     EXPONENTS,
+    FULL,
     MANIFEST,
     NOISE_LEVELS,
+    QUICK_OUT,
     RESULTS,
     TUNED_PRIOR,
     VERDICTS,
+    Settings,
 )
 
 # What the issue asks the tests to run: the quick report (about 16 s on two cores).
@@ -33,13 +40,49 @@ N_FIGURES = 6 + 1 + 4 + 2  # prior grids, exponents, average maps, fine maps
 FIGURE_LINK = re.compile(r"!\[[^\]]*\]\(([^)]+)\)")
 
 
+def _snapshot(folder):
+    """Every file under ``folder`` by relative name, with its SHA-256."""
+    return {
+        path.relative_to(folder).as_posix(): hashlib.sha256(path.read_bytes()).hexdigest()
+        for path in sorted(folder.rglob("*"))
+        if path.is_file()
+    }
+
+
+def _git_status(folder):
+    """``git status --porcelain`` of ``folder``, or None outside a git checkout."""
+    if shutil.which("git") is None:
+        return None
+    result = subprocess.run(
+        ["git", "status", "--porcelain", "--", str(folder)],
+        cwd=folder.parent,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    return result.stdout if result.returncode == 0 else None
+
+
 @pytest.fixture(scope="module")
-def reports(tmp_path_factory):
-    """Two independent runs of the quick report, each into its own folder."""
-    outs = [tmp_path_factory.mktemp(f"report{i}") for i in range(2)]
-    for out in outs:
-        assert rp.main([*QUICK, "--out", str(out)]) == 0
-    return outs
+def committed_report():
+    """The committed report folder's files and git status before any report test runs."""
+    return _snapshot(DEFAULT_OUT), _git_status(DEFAULT_OUT)
+
+
+@pytest.fixture(scope="module")
+def reports(tmp_path_factory, committed_report):
+    """Two independent runs of the quick report, each into its own folder.
+
+    The first runs without ``--out`` from a scratch current directory, so it writes to the
+    default folder of a quick run; the second into a folder given with ``--out``.
+    """
+    cwd = tmp_path_factory.mktemp("cwd")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(cwd)
+        assert rp.main(QUICK) == 0
+    second = tmp_path_factory.mktemp("report1")
+    assert rp.main([*QUICK, "--out", str(second)]) == 0
+    return [cwd / QUICK_OUT, second]
 
 
 def _without_date(path):
@@ -52,6 +95,12 @@ def _findings_rows(text):
 
 
 class TestReport:
+    def test_quick_run_leaves_the_committed_report_alone(self, reports, committed_report):
+        files, status = committed_report
+        assert (reports[0] / "REPORT.md").exists()  # the default folder of a quick run
+        assert _snapshot(DEFAULT_OUT) == files
+        assert _git_status(DEFAULT_OUT) == status
+
     def test_rules_come_before_the_findings(self, reports):
         text = (reports[0] / "REPORT.md").read_text()
         assert 0 < text.index("## Decision rules") < text.index("## Findings")
@@ -169,6 +218,36 @@ def test_bad_arguments_print_one_line_and_return_2(argv, message, tmp_path, caps
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--quick", "--out", str(DEFAULT_OUT)],
+        ["--seeds", "3", "--out", str(DEFAULT_OUT)],
+        ["--n-positions", "1000", "--out", str(DEFAULT_OUT / "sub")],
+        ["--fine-step", "20", "--out", str(DEFAULT_OUT / ".." / DEFAULT_OUT.name)],
+    ],
+)
+def test_partial_run_into_the_committed_report_is_refused(argv, capsys):
+    before = _snapshot(DEFAULT_OUT)
+    assert rp.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "committed report folder" in err
+    assert _snapshot(DEFAULT_OUT) == before
+    assert not (DEFAULT_OUT / "sub").exists()
+
+
+def test_output_folder():
+    quick = Settings(seeds=3, n_positions=1000, fine_step=20.0, quick=True)
+    assert rp.output_folder(FULL) == DEFAULT_OUT
+    assert rp.output_folder(Settings(seeds=10)) == DEFAULT_OUT  # the full preset's values
+    assert rp.output_folder(FULL, DEFAULT_OUT) == DEFAULT_OUT
+    assert rp.output_folder(quick) == QUICK_OUT
+    assert rp.output_folder(Settings(seeds=4)) == QUICK_OUT
+    assert rp.output_folder(quick, Path("elsewhere")) == Path("elsewhere")
+    with pytest.raises(ValueError, match="is the committed report folder"):
+        rp.output_folder(Settings(n_positions=500), DEFAULT_OUT)
 
 
 def test_runs_as_a_module():
@@ -399,3 +478,23 @@ def test_evaluate_on_a_full_table_gives_six_findings():
     findings = rp.evaluate(table)
     assert [f.number for f in findings] == [1, 2, 3, 4, 5, 6]
     assert all(f.verdict in VERDICTS for f in findings)
+
+
+def test_blas_order_does_not_change_the_outputs(monkeypatch):
+    # threadpoolctl lists the BLAS libraries in an order that varies between processes;
+    # the manifest and the results files must not depend on it.
+    from validation.reproduce import cli, settings
+
+    libraries = [
+        {"library": "openblas", "version": "0.3.31", "threads": 2, "threading_layer": "pthreads"},
+        {"library": "openblas", "version": "0.3.30", "threads": 2, "threading_layer": "pthreads"},
+    ]
+    manifests = []
+    for order in (libraries, libraries[::-1]):
+        monkeypatch.setattr(settings, "blas_threads", lambda order=order: list(order))
+        manifests.append(settings.manifest(FULL)["blas"])
+    assert manifests[0] == manifests[1]
+    assert cli._sorted_words("openblas-0.3.31 openblas-0.3.30") == cli._sorted_words(
+        "openblas-0.3.30 openblas-0.3.31"
+    )
+    assert cli._sorted_words("none") == "none"

@@ -1,6 +1,7 @@
 """Benchmark: wall time and peak memory of every SKF path and of MNE's sLORETA.
 
 ``python -m validation.bench [--out DIR] [--repeats N] [--size N_COLUMNS,N_CHANNELS,N_TIMES]``
+``[--paths P1,P2] [--blas-threads N]``
 
 Each row runs one path on one size: the SKF with ``"rts-standardized"`` smoothing
 (``skf_ref.reconstruct`` with ``method`` = filterpy, dense or spectral, asking for ``z``;
@@ -15,21 +16,29 @@ count is in the table). Peak memory is the peak of memory traced by ``tracemallo
 arrays and Python objects) during one extra run, above what was allocated before it: the
 memory the call itself needs. Paths the memory guard refuses are reported as not runnable,
 with the memory they would need. Results go to ``DIR/results.md`` and ``DIR/results.csv``.
+
+BLAS threads. numpy's and scipy's BLAS (OpenBLAS here) run on as many threads as they
+choose, so a time means little without them: every row records the BLAS libraries and
+their thread counts as they were while it was timed (threadpoolctl, through
+:func:`skf_ref.provenance.blas_threads`), and the markdown header names the machine, the
+libraries and their threads. ``--blas-threads N`` runs the whole benchmark under
+``threadpoolctl.threadpool_limits(N, user_api="blas")``; the limit is recorded beside every
+timing.
 """
 
 import argparse
-import os
-import platform
 import statistics
 import sys
 import time
 import tracemalloc
+from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from skf_ref.files import atomic_path
+from skf_ref.provenance import blas_threads, machine
 
 SIZES = ((600, 64, 41), (1500, 64, 41), (9000, 64, 41), (9000, 64, 1000), (150000, 128, 1000))
 PATHS = ("filterpy", "dense", "spectral", "mne-sloreta", "mne-sloreta+make")
@@ -173,7 +182,49 @@ def measure(run, repeats):
     return statistics.median(times), len(times), peak
 
 
-def benchmark(sizes=SIZES, paths=PATHS, repeats=5, progress=print):
+def _blas():
+    """The BLAS libraries now, in a fixed order (threadpoolctl's varies between processes)."""
+    return sorted(blas_threads(), key=lambda b: (str(b["library"]), str(b["version"])))
+
+
+def blas_columns(blas_limit=None):
+    """What the BLAS libraries run on now, as the columns every benchmark row records.
+
+    Parameters
+    ----------
+    blas_limit : int, optional
+        The ``--blas-threads`` limit the benchmark runs under (None: not limited).
+
+    Returns
+    -------
+    dict
+        ``blas``: each library with its version and threads, e.g.
+        ``"openblas 0.3.30 (2 threads)"``, ``"; "``-separated (``"none"`` if none is
+        loaded); ``blas_threads``: the largest thread count of any of them (1 if none);
+        ``blas_limit``: ``blas_limit``, or ``"none"``.
+    """
+    blas = _blas()
+    described = [
+        f"{b['library']} {b['version']} ({b['threads']} thread{'s' * (b['threads'] != 1)})"
+        for b in blas
+    ]
+    return dict(
+        blas="; ".join(described) or "none",
+        blas_threads=max((b["threads"] for b in blas), default=1),
+        blas_limit="none" if blas_limit is None else blas_limit,
+    )
+
+
+def _limited(blas_limit):
+    """``threadpool_limits`` to ``blas_limit`` BLAS threads, or no limit for None."""
+    if blas_limit is None:
+        return nullcontext()
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=blas_limit, user_api="blas")
+
+
+def benchmark(sizes=SIZES, paths=PATHS, repeats=5, progress=print, blas_limit=None):
     """Run every path at every size.
 
     Parameters
@@ -183,28 +234,34 @@ def benchmark(sizes=SIZES, paths=PATHS, repeats=5, progress=print):
     repeats : int
     progress : callable
         Called with one line per finished row.
+    blas_limit : int, optional
+        Run everything under ``threadpool_limits(blas_limit, user_api="blas")``; default:
+        the libraries' own thread counts.
 
     Returns
     -------
     pandas.DataFrame
         One row per size and path: ``seconds``, ``runs``, ``peak_mib`` (NaN when not
-        runnable), ``status`` and ``note``.
+        runnable), ``status``, ``note`` and the BLAS it ran with (:func:`blas_columns`).
     """
     rows = []
-    for n_columns, n_channels, n_times in sizes:
-        problem = make_problem(n_columns, n_channels, n_times)
-        for path in paths:
-            row = dict(n_columns=n_columns, n_channels=n_channels, n_times=n_times, path=path)
-            needed = _not_runnable(path, n_columns, n_times)
-            if needed is not None:
-                row.update(seconds=np.nan, runs=0, peak_mib=np.nan, status="not runnable")
-                row["note"] = f"needs {needed / 2**30:.1f} GiB for its covariances"
-            else:
-                seconds, runs, peak = measure(_runner(problem, path), repeats)
-                row.update(seconds=seconds, runs=runs, peak_mib=peak / 2**20, status="ok")
-                row["note"] = ""
-            rows.append(row)
-            progress(_format_row(row))
+    with _limited(blas_limit):
+        for n_columns, n_channels, n_times in sizes:
+            problem = make_problem(n_columns, n_channels, n_times)
+            for path in paths:
+                row = dict(n_columns=n_columns, n_channels=n_channels, n_times=n_times)
+                row["path"] = path
+                needed = _not_runnable(path, n_columns, n_times)
+                if needed is not None:
+                    row.update(seconds=np.nan, runs=0, peak_mib=np.nan, status="not runnable")
+                    row["note"] = f"needs {needed / 2**30:.1f} GiB for its covariances"
+                else:
+                    seconds, runs, peak = measure(_runner(problem, path), repeats)
+                    row.update(seconds=seconds, runs=runs, peak_mib=peak / 2**20, status="ok")
+                    row["note"] = ""
+                row.update(blas_columns(blas_limit))
+                rows.append(row)
+                progress(_format_row(row))
     return pd.DataFrame(rows)
 
 
@@ -213,7 +270,8 @@ def _format_row(row):
         return f"{row['n_columns']:>7} {row['n_times']:>5} {row['path']:<12} {row['note']}"
     return (
         f"{row['n_columns']:>7} {row['n_times']:>5} {row['path']:<12} "
-        f"{row['seconds']:10.4f} s  {row['peak_mib']:9.1f} MiB  ({row['runs']} runs)"
+        f"{row['seconds']:10.4f} s  {row['peak_mib']:9.1f} MiB  ({row['runs']} runs, "
+        f"{row['blas_threads']} BLAS threads)"
     )
 
 
@@ -270,8 +328,9 @@ def to_markdown(table):
     str
     """
     lines = [
-        "| n_columns | n_channels | n_times | path | time (s) | runs | peak memory (MiB) | note |",
-        "|---:|---:|---:|---|---:|---:|---:|---|",
+        "| n_columns | n_channels | n_times | path | time (s) | runs | BLAS threads "
+        "| peak memory (MiB) | note |",
+        "|---:|---:|---:|---|---:|---:|---:|---:|---|",
     ]
     for _, row in table.iterrows():
         ok = row["status"] == "ok"
@@ -279,27 +338,102 @@ def to_markdown(table):
         peak = f"{row['peak_mib']:.1f}" if ok else "-"
         lines.append(
             f"| {row['n_columns']} | {row['n_channels']} | {row['n_times']} | {row['path']} "
-            f"| {seconds} | {row['runs']} | {peak} | {row['note']} |"
+            f"| {seconds} | {row['runs']} | {row['blas_threads']} | {peak} | {row['note']} |"
         )
     return "\n".join(lines) + "\n"
 
 
-def report(table):
-    """The markdown file: machine, table and targets."""
-    header = f"Machine: {_machine()}. Median wall time; peak traced memory of one run.\n\n"
-    return header + to_markdown(table) + "\nTargets:\n\n" + "\n".join(targets(table)) + "\n"
+def report(table, blas_limit=None):
+    """The markdown file: machine, BLAS and its threads, table and targets.
 
-
-def _machine():
-    return (
-        f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-        f"numpy {np.__version__}"
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        As returned by :func:`benchmark`.
+    blas_limit : int, optional
+        The ``--blas-threads`` limit the table was measured under.
+    """
+    return "".join(
+        [
+            "\n".join(header_lines(table, blas_limit)),
+            "\n\n",
+            to_markdown(table),
+            "\nTargets:\n\n",
+            "\n".join(targets(table)),
+            "\n",
+        ]
     )
+
+
+def header_lines(table, blas_limit=None):
+    """The report's header: machine, package versions, BLAS libraries and their threads.
+
+    The BLAS line is read from the table's rows (what each timing ran with), so it cannot
+    disagree with them.
+    """
+    info = machine()
+    versions = ", ".join(f"{name} {version}" for name, version in info["versions"].items())
+    blas = sorted(set(table["blas"])) if len(table) else [blas_columns(blas_limit)["blas"]]
+    limit = (
+        f"limited to {blas_limit} by `--blas-threads {blas_limit}` (threadpoolctl)"
+        if blas_limit is not None
+        else "not limited: each library's default (`--blas-threads N` to limit)"
+    )
+    return [
+        f"Machine: {info['platform']}, {info['cpus']} CPUs, Python {info['python']}; {versions}.",
+        f"BLAS (threadpoolctl, while timing): {' | '.join(blas)}; threads {limit}.",
+        "Median wall time; peak traced memory of one run.",
+    ]
 
 
 def main(argv=None):
     """Command line entry point; returns the exit status."""
-    parser = argparse.ArgumentParser(prog="python -m validation.bench", description=__doc__)
+    try:
+        args = parse_args(argv)
+    except ValueError as err:
+        print(f"bench: {err}", file=sys.stderr)
+        return 2
+    table = benchmark(
+        args.sizes,
+        args.paths,
+        args.repeats,
+        progress=lambda line: print(line, flush=True),
+        blas_limit=args.blas_threads,
+    )
+    args.out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(args.out / "results.csv") as tmp:
+        table.to_csv(tmp, index=False)
+    with atomic_path(args.out / "results.md") as tmp:
+        tmp.write_text(report(table, args.blas_threads))
+    print(f"wrote {args.out / 'results.md'} and {args.out / 'results.csv'}")
+    return 0
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, not the usage: main prints it and returns 2
+        raise ValueError(message)
+
+
+def parse_args(argv=None):
+    """The command line's options, checked.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments after the program name; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    argparse.Namespace
+        ``out`` (Path), ``repeats`` (int), ``sizes`` (list of 3-tuples), ``paths`` (list
+        of str), ``blas_threads`` (int, or None for no limit).
+
+    Raises
+    ------
+    ValueError
+        With a one-line message, for any bad argument.
+    """
+    parser = _Parser(prog="python -m validation.bench", description=__doc__)
     parser.add_argument("--out", type=Path, default=Path("validation/bench"))
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument(
@@ -309,27 +443,28 @@ def main(argv=None):
         help="a size to run (repeatable); default: the five sizes of the issue",
     )
     parser.add_argument("--paths", default=",".join(PATHS))
+    parser.add_argument(
+        "--blas-threads",
+        type=int,
+        metavar="N",
+        help="run the whole benchmark under threadpoolctl.threadpool_limits(N) for BLAS "
+        "(default: the libraries' own thread counts); recorded beside every timing",
+    )
     args = parser.parse_args(argv)
     try:
         sizes = [tuple(int(v) for v in s.split(",")) for s in args.size] if args.size else SIZES
         if any(len(s) != 3 for s in sizes) or args.repeats < 1:
             raise ValueError
     except ValueError:
-        print("bench: --size takes N_COLUMNS,N_CHANNELS,N_TIMES; --repeats >= 1", file=sys.stderr)
-        return 2
-    paths = args.paths.split(",")
-    unknown = set(paths) - set(PATHS)
+        raise ValueError("--size takes N_COLUMNS,N_CHANNELS,N_TIMES; --repeats >= 1") from None
+    args.sizes = [tuple(s) for s in sizes]
+    args.paths = args.paths.split(",")
+    unknown = set(args.paths) - set(PATHS)
     if unknown:
-        print(f"bench: unknown --paths {sorted(unknown)}; choose from {PATHS}", file=sys.stderr)
-        return 2
-    table = benchmark(sizes, paths, args.repeats, progress=lambda line: print(line, flush=True))
-    args.out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(args.out / "results.csv") as tmp:
-        table.to_csv(tmp, index=False)
-    with atomic_path(args.out / "results.md") as tmp:
-        tmp.write_text(report(table))
-    print(f"wrote {args.out / 'results.md'} and {args.out / 'results.csv'}")
-    return 0
+        raise ValueError(f"unknown --paths {sorted(unknown)}; choose from {PATHS}")
+    if args.blas_threads is not None and args.blas_threads < 1:
+        raise ValueError(f"--blas-threads must be at least 1, got {args.blas_threads}")
+    return args
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Reproduce the paper's findings (shared/SKF_SPEC.md §7) under decision rules fixed in advance.
+"""Reproduce the paper's findings (docs/model.md §7) under decision rules fixed in advance.
 
 ``python -m validation.reproduce [--quick] [--out DIR] [--jobs N] [--fresh]``
 ``[--seeds N] [--n-positions N] [--fine-step DB]``
@@ -16,6 +16,12 @@ Presets: the full run uses 10 seeds, the default head model (about 3000 position
 10 dB step of the fine map; ``--quick`` uses 3 seeds, about 1000 positions and a 20 dB
 step. ``--seeds``, ``--n-positions`` and ``--fine-step`` override the preset (the tests use
 them for an even smaller run).
+
+Output folder. Only the full preset writes the committed report, ``validation/report/``
+(its default ``DIR``). Any other run (``--quick``, or an override that changes the
+preset) writes by default to ``reproduce-quick/`` in the current directory (ignored by
+git), and is refused, with exit status 2, if ``--out`` is the committed report folder or
+inside it: a trial run never replaces the 10-seed report.
 
 Resuming and regenerating. The results files are resumable: an interrupted run picks up
 the rows already written. ``DIR/settings.json`` records everything the rows depend on (the
@@ -39,7 +45,7 @@ above the lowest electrode, ``sensitivity.csv``), ``figures`` (matplotlib, impor
 :func:`main`).
 """
 
-from .cli import main, prepare_out, run_sweeps
+from .cli import main, output_folder, prepare_out, run_sweeps
 from .figures import make_figures, plot_fine_map
 from .report import ReportData, report_text
 from .rules import Finding, evaluate, rule_f1, rule_f2, rule_f3, rule_f4, rule_f5, rule_f6, verdict
@@ -61,6 +67,7 @@ __all__ = [
     "main",
     "make_figures",
     "manifest",
+    "output_folder",
     "plot_fine_map",
     "prepare_out",
     "report_text",

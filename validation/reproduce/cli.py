@@ -28,13 +28,14 @@ from .settings import (
     MANIFEST,
     MONTAGE,
     QUICK,
+    QUICK_OUT,
     RESULTS,
     Settings,
     manifest,
 )
 from .stats import summary_table
 
-__all__ = ["main", "prepare_out", "run_sweeps"]
+__all__ = ["main", "output_folder", "prepare_out", "run_sweeps"]
 
 
 # --------------------------------------------------------------------------- results files
@@ -113,9 +114,22 @@ def _sorted_rewrite(path):
 
     table = read_results(path)
     table = table.sort_values(list(KEY), kind="stable", ignore_index=True)
+    if "blas" in table:
+        table["blas"] = table["blas"].map(_sorted_words)
     with atomic_path(path) as tmp:
         table.to_csv(tmp, index=False, lineterminator="\n")
     return table
+
+
+def _sorted_words(value):
+    """The words of a ``blas`` cell in sorted order.
+
+    ``skf_ref.provenance.blas_threads`` lists the loaded BLAS libraries in an order that
+    varies from process to process (threadpoolctl's order follows the string hash seed), so
+    sweep rows computed by different workers name the same libraries in different orders.
+    Sorting them keeps the results files regenerable byte for byte.
+    """
+    return " ".join(sorted(value.split())) if isinstance(value, str) else value
 
 
 # --------------------------------------------------------------------------- arguments
@@ -137,7 +151,12 @@ def _parser():
         "REPORT.md, figures and the sweep tables.",
     )
     parser.add_argument("--quick", action="store_true", help="3 seeds, ~1000 positions, 20 dB map")
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="report folder")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        help=f"report folder (default: the committed {DEFAULT_OUT.parent.name}/"
+        f"{DEFAULT_OUT.name}/ for the full preset, ./{QUICK_OUT}/ for any other run)",
+    )
     parser.add_argument("--jobs", type=int, default=1, help="parallel workers (-1: all cores)")
     parser.add_argument("--fresh", action="store_true", help="recompute every run")
     parser.add_argument("--seeds", type=int, help="override the preset's number of seeds")
@@ -168,6 +187,44 @@ def _settings(args):
             f"{settings.fine_step:g}"
         )
     return settings
+
+
+def _inside(path, folder):
+    path, folder = path.resolve(), folder.resolve()
+    return path == folder or folder in path.parents
+
+
+def output_folder(settings, out=None):
+    """The folder a run writes to; refuse to let a partial run replace the committed report.
+
+    Parameters
+    ----------
+    settings : Settings
+    out : Path, optional
+        The ``--out`` argument.
+
+    Returns
+    -------
+    Path
+        ``out`` if given, else :data:`DEFAULT_OUT` (the committed report) for the full
+        preset and :data:`QUICK_OUT` (untracked, in the current directory) for any other.
+
+    Raises
+    ------
+    ValueError
+        If the settings are not the full preset's (``--quick``, or ``--seeds``,
+        ``--n-positions``, ``--fine-step`` changing a value) and ``out`` is the committed
+        report folder or inside it.
+    """
+    full = settings.is_full()
+    if out is None:
+        return DEFAULT_OUT if full else QUICK_OUT
+    if not full and _inside(out, DEFAULT_OUT):
+        raise ValueError(
+            f"--out {out} is the committed report folder, which only the full run writes; "
+            f"a --quick or partial run writes elsewhere (default ./{QUICK_OUT})"
+        )
+    return out
 
 
 # --------------------------------------------------------------------------- main
@@ -218,12 +275,13 @@ def main(argv=None):
     try:
         args = _parser().parse_args(argv)
         settings = _settings(args)
+        out = output_folder(settings, args.out)
         head = simulate.make_head_model(settings.n_positions, MONTAGE)
         simulate.simulate(head, simulate.p20n20_scenario(), 30.0, 0)  # the grid holds it
     except (_UsageError, ValueError) as err:
         print(f"reproduce: {err}", file=sys.stderr)
         return 2
-    out, wanted = args.out, manifest(settings)
+    wanted = manifest(settings)
     reason = prepare_out(out, wanted, args.fresh)
     if reason is not None:
         print(f"reproduce: deleted the previous results ({reason})", file=sys.stderr)

@@ -151,7 +151,7 @@ def _discussion(data):
         "steps: q = 10^((EP + PM)/10) σ² A² / (N K) depends on the sum only. So raising EP or "
         "raising PM by 20 dB changes the model almost alike, and F1 (b) can hold only by a "
         "small margin here. The toolbox "
-        "convention (shared/SKF_SPEC.md §4) clamps PM to at most the data SNR − 1 dB: at "
+        "convention (docs/model.md §4) clamps PM to at most the data SNR − 1 dB: at "
         "10 dB a PM of 20 dB acts as 9 dB, which makes raising PM cheaper than raising EP, a "
         "possible origin of the paper's F1 (b); it could be tested with the toolbox "
         "convention (not run here: the sweep has no convention axis).",

@@ -183,7 +183,7 @@ def _header(settings, head, wanted, paper, fine):
         "3 ms, 10 nAm, peaks at 1.5 and 2.5 ms; 10 kHz, 0-4 ms (41 samples). Data from the "
         "exact dipoles' own forward field, not grid columns (no inverse crime); white noise "
         "at peak SNR 10, 20, 30 dB; the inverse uses the true noise level. Priors from "
-        'EP/PM-SNR with the "gain" amplitude convention (shared/SKF_SPEC.md §4).',
+        'EP/PM-SNR with the "gain" amplitude convention (docs/model.md §4).',
         f"- Paper grid (`{RESULTS[0]}`, {len(paper)} runs): 10/20/30 dB; EP, PM ∈ {{0, 20}} dB; "
         "exponents 0.5, 1, 1.25, 1.5; smoothers none, rts-standardized, rts-state; seeds "
         f"0..{settings.seeds - 1}.",

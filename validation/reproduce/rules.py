@@ -1,4 +1,4 @@
-"""The decision rules of the six findings of shared/SKF_SPEC.md §7.
+"""The decision rules of the six findings of docs/model.md §7.
 
 Each rule is a pure function of the paper-grid sweep table that returns a :class:`Finding`:
 the criteria it checked, the numbers it used and its verdict. The rules were fixed before
@@ -40,7 +40,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Finding:
-    """One finding of spec §7 as judged by its decision rule.
+    """One finding of docs/model.md §7 as judged by its decision rule.
 
     Attributes
     ----------

@@ -7,6 +7,7 @@ here runs a sweep.
 from __future__ import annotations
 
 import hashlib
+import json
 import platform
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +24,7 @@ __all__ = [
     "MONTAGE",
     "NOISE_LEVELS",
     "QUICK",
+    "QUICK_OUT",
     "RANKED_EXPONENTS",
     "RESULTS",
     "SMOOTHED",
@@ -57,7 +59,11 @@ FINE_RANGE = (-20.0, 40.0)
 TIE_MM = 1e-6
 VERDICTS = ("reproduced", "partly", "not reproduced")
 MONTAGE = "biosemi64"
+#: The committed report folder: only the full preset writes here.
 DEFAULT_OUT = Path(__file__).resolve().parent.parent / "report"
+#: Default folder of any other run (``--quick``, or a preset overridden): relative to the
+#: current directory, untracked (``.gitignore``), so a trial run never replaces the report.
+QUICK_OUT = Path("reproduce-quick")
 RESULTS = ("paper_grid.csv", "fine_grid.csv")
 MANIFEST = "settings.json"
 
@@ -107,6 +113,10 @@ class Settings:
             )
             for exponent, smoother in (TUNING, SMOOTHED)
         ]
+
+    def is_full(self):
+        """Whether these are the full preset's settings, the only ones DEFAULT_OUT holds."""
+        return self == FULL
 
     def command(self):
         """The command line that regenerates these results (without --out and --jobs)."""
@@ -159,6 +169,8 @@ def manifest(settings):
         n_positions=settings.n_positions,
         montage=MONTAGE,
         versions=_versions(),
-        blas=blas_threads(),
+        # sorted: blas_threads' order varies from process to process (threadpoolctl's
+        # order follows the string hash seed), which would make every rerun look stale
+        blas=sorted(blas_threads(), key=lambda b: json.dumps(b, sort_keys=True)),
         skf_ref_sources_sha256=_source_digest(),
     )
