@@ -35,6 +35,7 @@ _HOMES = {
     "StandardizedKalmanFilter": "kalman",
     "Reconstruction": "result",
     "reconstruct": "inverse",
+    "apply_skf": "apply",
     "prior_variance": "priors",
     "evolution_variance": "priors",
     "lead_field_amplitude": "priors",

@@ -221,18 +221,26 @@ def check_leadfield(L, name="L"):
 
 
 def check_spd(name, value, n):
-    """A symmetric positive definite (n, n) matrix; returns it symmetrized."""
+    """A symmetric positive definite (n, n) matrix; returns it symmetrized.
+
+    Positive definite to double precision: a matrix whose smallest eigenvalue is within
+    rounding of zero (an average-referenced noise covariance, rank n - 1) is refused even
+    when a Cholesky factorization happens to pass, since inverting it would amplify rounding.
+    """
     matrix = check_array(name, value, (n, n))
     scale = np.max(np.abs(matrix))
     if not np.allclose(matrix, matrix.T, rtol=0, atol=1e-12 * scale):
         raise InputError(f"{name} must be symmetric")
-    try:
-        linalg.cholesky(matrix, lower=True)
-    except linalg.LinAlgError as err:
+    matrix = (matrix + matrix.T) / 2
+    eigenvalues = linalg.eigvalsh(matrix)
+    if not eigenvalues[0] > 10 * n * np.finfo(float).eps * eigenvalues[-1]:
         raise InputError(
-            f"{name} must be positive definite (its Cholesky factorization failed)"
-        ) from err
-    return (matrix + matrix.T) / 2
+            f"{name} must be positive definite, got eigenvalues from {eigenvalues[0]:.3g} to "
+            f"{eigenvalues[-1]:.3g} (singular to double precision); a rank-deficient covariance "
+            "(e.g. of average-referenced data) must be whitened to its rank instead "
+            "(skf_ref.apply_skf does so with MNE's whitener) or regularized"
+        )
+    return matrix
 
 
 def check_scalar_or_spd(name, value, n, *, allow_zero=False):

@@ -28,6 +28,8 @@ from .checks import (
 __all__ = ["StateSpaceModel"]
 
 _SMALLEST, _LARGEST = np.finfo(float).tiny, np.finfo(float).max
+# A channel mean this small relative to the largest entry is an average reference.
+_REFERENCED_RTOL = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,6 +130,7 @@ class StateSpaceModel:
         Y = check_array("Y", Y, (self.n_channels, "n_times"))
         if Y.shape[1] < 1:
             raise InputError(f"Y must have at least one time step, got shape {Y.shape}")
+        self._check_reference(Y)
         noise_std = np.sqrt(np.linalg.eigvalsh(self.R)[0])
         size = np.max(np.abs(Y)) / noise_std
         if size > 0 and not np.log(size) * 2 + np.log(Y.size) < np.log(_LARGEST):
@@ -137,6 +140,21 @@ class StateSpaceModel:
                 "squared residuals overflow; give Y and the noise in the same units"
             )
         return Y
+
+    def _check_reference(self, Y):
+        """Refuse average-referenced data with a lead field that is not (docs/model.md §1)."""
+        scale = np.max(np.abs(Y))
+        if self.n_channels < 3 or scale == 0:
+            return
+        data_referenced = np.max(np.abs(Y.mean(axis=0))) <= _REFERENCED_RTOL * scale
+        column_means = np.abs(self.L.mean(axis=0))
+        field_referenced = np.all(column_means <= _REFERENCED_RTOL * np.abs(self.L).max(axis=0))
+        if data_referenced and not field_referenced:
+            raise InputError(
+                "Y is average referenced (its channel mean is 0 at every time) but L is not: "
+                "the model needs the same reference in both; average-reference L (subtract "
+                "each column's mean over the channels)"
+            )
 
     def matrix(self, name):
         """``"transition"``, ``"q"`` or ``"theta0"`` as an (n_sources, n_sources) matrix."""

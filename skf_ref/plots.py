@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .checks import InputError, check_instance, check_real
-from .regions import DYNAMIC_RANGE_DB, as_amplitude, region_time_course
+from .checks import InputError, check_array, check_instance, check_int, check_real
+from .regions import DYNAMIC_RANGE_DB, as_amplitude, check_amplitude, region_time_course
 
 __all__ = [
     "plot_average_reconstruction",
+    "plot_estimate",
     "plot_exponent_comparison",
     "plot_prior_grid",
     "plot_time_courses",
@@ -307,6 +308,75 @@ def plot_average_reconstruction(
     fig.colorbar(image, ax=axes, label="dB re. maximum at that time", extend="min", shrink=0.8)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize="small")
+    if title is not None:
+        fig.suptitle(title)
+    return _finish(fig, path)
+
+
+def plot_estimate(amplitude, times, positions=None, n_strongest=5, title=None, path=None):
+    """An estimate without ground truth: the strongest positions over time, and projections.
+
+    Left: the time courses of the ``n_strongest`` positions (largest maximum over time).
+    Right, when positions are given: sagittal, coronal and axial maximum-intensity
+    projections at the time of the global maximum, each position a dot coloured in dB re.
+    that maximum (6 dB range), drawn weakest first so that a dot shows the largest value
+    along the projected axis; any source space works, regular grid or not.
+
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions, n_times)
+        Per-position amplitude (e.g. ``Reconstruction.amplitude(3)`` or ``stc.data``).
+    times : ndarray, shape (n_times,)
+        Seconds.
+    positions : ndarray, shape (n_positions, 3), optional
+        Metres, head coordinates.
+    n_strongest : int
+    title : str, optional
+    path : str or path-like, optional
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+    """
+
+    times_ms = np.asarray(times, dtype=float) * 1e3
+    amplitude = check_amplitude(amplitude, len(amplitude))
+    if amplitude.shape[1] != times_ms.size:
+        raise InputError(
+            f"times must have shape ({amplitude.shape[1]},) like amplitude's columns, got "
+            f"{times_ms.shape}"
+        )
+    n_strongest = check_int("n_strongest", n_strongest, minimum=1)
+    fig = _figure(12.0 if positions is not None else 5.0, 3.4)
+    axes = fig.subplots(1, 4 if positions is not None else 1, squeeze=False)[0]
+    strongest = np.argsort(amplitude.max(axis=1))[::-1][:n_strongest]
+    for index in strongest:
+        axes[0].plot(times_ms, amplitude[index], lw=1.4, label=f"position {index}")
+    axes[0].set_xlabel("time (ms)")
+    axes[0].set_ylabel("amplitude")
+    axes[0].legend(fontsize="x-small")
+    axes[0].set_title(f"{len(strongest)} strongest positions")
+    if positions is not None:
+        positions = check_array("positions", positions, (len(amplitude), 3)) * 1e3
+        k = int(np.argmax(amplitude.max(axis=0)))
+        with np.errstate(divide="ignore"):
+            db = 20 * np.log10(amplitude[:, k] / amplitude[:, k].max())
+        order = np.argsort(db)
+        for ax, (name, _, horiz, vert) in zip(axes[1:], _VIEWS, strict=True):
+            dots = ax.scatter(
+                positions[order, horiz],
+                positions[order, vert],
+                c=db[order],
+                cmap="Blues",
+                vmin=-DYNAMIC_RANGE_DB,
+                vmax=0.0,
+                s=12,
+            )
+            ax.set_aspect("equal")
+            ax.set_title(f"{name} MIP, {times_ms[k]:g} ms")
+            ax.set_xlabel(_AXIS_LABELS[horiz])
+            ax.set_ylabel(_AXIS_LABELS[vert])
+        fig.colorbar(dots, ax=axes[1:], label="dB re. maximum at that time", shrink=0.8)
     if title is not None:
         fig.suptitle(title)
     return _finish(fig, path)

@@ -233,6 +233,29 @@ class Reconstruction:
             f"{self.method}, exponent {self.exponent:g}, {smoother}>"
         )
 
+    def to_stc(self, src, tmin, tstep, subject=None, kind="amplitude"):
+        """This reconstruction as an MNE source estimate (see :func:`skf_ref.stc.make_stc`).
+
+        Parameters
+        ----------
+        src : mne.SourceSpaces
+            The source space of the lead field's columns (``forward["src"]``).
+        tmin, tstep : float
+            First sample's time and the sampling interval, seconds.
+        subject : str, optional
+            Default: the source space's subject.
+        kind : {"amplitude", "vector", "z"}
+            Per-position amplitude, free orientation's components, or fixed orientation's
+            signed ``z``.
+
+        Returns
+        -------
+        mne.SourceEstimate or mne.VolSourceEstimate or mne.MixedSourceEstimate or vector kin
+        """
+        from .stc import make_stc
+
+        return make_stc(self, src, tmin, tstep, subject, kind)
+
     def amplitude(self, components=1, *, filtered=False):
         """Per-position amplitude: the Euclidean norm of each position's components of z.
 

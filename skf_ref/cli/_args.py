@@ -12,7 +12,13 @@ _NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$
 
 
 class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
-    """Shows every default except those that mean "not given" (None, False)."""
+    """Shows every default except those that mean "not given" (None, False); keeps the
+    line breaks of texts that have them (examples), wraps the others."""
+
+    def _fill_text(self, text, width, indent):
+        if "\n" in text:
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
 
     def _get_help_string(self, action):
         if action.default is None or action.default is False or action.required:
