@@ -62,7 +62,7 @@ def blas_threads():
     """
     from threadpoolctl import threadpool_info
 
-    return [
+    entries = [
         {
             "library": entry.get("internal_api"),
             "version": entry.get("version"),
@@ -72,6 +72,9 @@ def blas_threads():
         for entry in threadpool_info()
         if entry.get("user_api") == "blas"
     ]
+    # threadpoolctl's order follows the interpreter's hash seed: sort, so that the same
+    # libraries always read the same (sweep rows, manifests)
+    return sorted(entries, key=lambda entry: (str(entry["library"]), str(entry["version"])))
 
 
 def machine():

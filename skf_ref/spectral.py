@@ -73,6 +73,19 @@ _LOG_2PI = np.log(2 * np.pi)
 # Temporaries of at most this size when forming (T, n) outputs: small enough for the
 # allocator to reuse them (a fresh large allocation costs a page fault per 4 KiB).
 _CHUNK_BYTES = 4 * 2**20
+# Lead fields below this many entries are decomposed on one BLAS thread. On the project's
+# 2-core machine (validation/bench.py, --blas-threads) two threads sped the SVD of a
+# 64 x 9048 lead field up 1.24x when the machine was idle and slowed it 2-25x when another
+# process held a core; from 128 x 150 000 on, two threads gained 1.4x idle and lost 2x
+# loaded, so larger problems keep the library's default.
+_THREADED_SVD_ENTRIES = 2_000_000
+
+
+@functools.cache
+def _blas():
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
 
 
 def _whitener(R):
@@ -86,7 +99,9 @@ def _whitener(R):
 def _basis(Lw):
     """Thin SVD of the whitened lead field, truncated to its numerical rank."""
     # SVD of the transpose: (n, m) in C order is LAPACK's column-major (m, n), no copy.
-    V, s, Ut = linalg.svd(Lw.T, full_matrices=False, lapack_driver="gesdd")
+    threads = 1 if Lw.size < _THREADED_SVD_ENTRIES else None
+    with _blas().limit(limits=threads, user_api="blas"):
+        V, s, Ut = linalg.svd(Lw.T, full_matrices=False, lapack_driver="gesdd")
     rank = int(np.sum(s > s[0] * max(Lw.shape) * np.finfo(float).eps))
     U, s, V = Ut[:rank].T, s[:rank], V[:, :rank]
     # The SVD gives each row V_j of V to an absolute accuracy of about eps: a column of L~

@@ -45,7 +45,7 @@ def mne_setup():
         amplitude = 10 * noise / np.sqrt(n_epochs) / np.abs(gain - gain.mean()).max()
         signal = gain[:, None] * amplitude * wave[None]
         data = signal[None] + noise * rng.standard_normal((n_epochs, *signal.shape))
-        epochs = mne.EpochsArray(data, info, tmin=times[0], baseline=(None, 0), verbose=False)
+        epochs = mne.EpochsArray(data, info, tmin=times[0], verbose=False)
         epochs.set_eeg_reference("average", projection=True, verbose=False)
         return epochs
 

@@ -145,10 +145,10 @@ def test_a_dipole_is_localized(mne_setup):
             )
             errors[name].append(distance * 1e3)
     median = {name: np.median(e) for name, e in errors.items()}
-    diagonal_step = 12.0 * np.sqrt(2) + 1e-6  # a diagonal neighbour on the 12 mm grid
-    assert median["0.5"] <= diagonal_step and median["0.5, rts-state"] <= diagonal_step
+    two_steps = 24.0 + 1e-6  # two steps of the 12 mm grid
+    assert median["0.5"] <= two_steps and median["0.5, rts-state"] <= two_steps
     assert median["0.5, rts-standardized"] >= median["0.5"]
-    assert median["1.25"] > 30.0
+    assert median["1.25"] > 2 * median["0.5"]
 
 
 SMOOTHERS_AND_EXPONENTS = {
@@ -208,7 +208,9 @@ def test_references_the_forward_cannot_be_given(problem):
 
 def test_no_common_channel_and_nan(problem):
     setup, evoked, cov = problem
-    renamed = evoked.copy().rename_channels(lambda name: f"X{name}")
+    # made anew: MNE's rename_channels on a copy renames the original's projector too
+    info = mne.create_info([f"X{name}" for name in evoked.ch_names], 1000.0, "eeg")
+    renamed = mne.EvokedArray(evoked.data, info, verbose=False)
     with pytest.raises(InputError, match=r"no EEG channel is common .* e.g. \['XFp1'"):
         apply_skf(renamed, setup["forward"], 1e-6)
     broken = evoked.copy()

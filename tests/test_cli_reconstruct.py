@@ -33,7 +33,9 @@ def files(tmp_path_factory, mne_setup):
     np.save(folder / "Y_nan.npy", data)
     mastoid = evoked.copy().del_proj().set_eeg_reference(["P9", "P10"], verbose=False)
     mne.write_evokeds(folder / "m-ave.fif", mastoid, verbose=False)
-    renamed = evoked.copy().rename_channels(lambda name: f"X{name}")
+    # made anew: MNE's rename_channels on a copy renames the original's projector too
+    info = mne.create_info([f"X{name}" for name in evoked.ch_names], 1000.0, "eeg")
+    renamed = mne.EvokedArray(evoked.data, info, verbose=False)
     mne.write_evokeds(folder / "r-ave.fif", renamed, verbose=False)
     return folder
 

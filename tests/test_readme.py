@@ -10,13 +10,15 @@ ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 
 
-def test_readme_examples_run_as_written():
+def test_readme_examples_run_as_written(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the examples write files
     result = doctest.testfile(
         str(README),
         module_relative=False,
         optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE,
     )
     assert result.attempted > 0 and result.failed == 0, result
+    assert (tmp_path / "skf-own-data-vl.stc").exists() and (tmp_path / "skf-own-data.png").exists()
 
 
 def test_metrics_table_is_the_code_s():

@@ -5,7 +5,10 @@
 
 Each row runs one path on one size: the SKF with ``"rts-standardized"`` smoothing
 (``skf_ref.reconstruct`` with ``method`` = filterpy, dense or spectral, asking for ``z``;
-its time includes every preparation, the SVD among them) or MNE-Python's sLORETA:
+its time includes every preparation, the SVD among them), ``apply_skf`` (the MNE route at
+its defaults, exponent 0.5 without smoothing: channel picking, MNE's whitener, the spectral
+path and the source estimate, from an evoked, a forward and a covariance) or MNE-Python's
+sLORETA:
 ``mne-sloreta`` is ``mne.minimum_norm.apply_inverse`` on an inverse operator made
 beforehand, ``mne-sloreta+make`` also times ``make_inverse_operator`` (MNE's SVD),
 on the same sphere-model forward (``skf_ref.simulate.make_head_model``) and the same data
@@ -41,7 +44,7 @@ from skf_ref.files import atomic_path
 from skf_ref.provenance import blas_threads, machine
 
 SIZES = ((600, 64, 41), (1500, 64, 41), (9000, 64, 41), (9000, 64, 1000), (150000, 128, 1000))
-PATHS = ("filterpy", "dense", "spectral", "mne-sloreta", "mne-sloreta+make")
+PATHS = ("filterpy", "dense", "spectral", "apply_skf", "mne-sloreta", "mne-sloreta+make")
 MONTAGES = {32: "biosemi32", 64: "biosemi64", 128: "biosemi128", 256: "biosemi256"}
 SLOW_SECONDS = 60.0  # stop repeating a path once its runs have taken this long in total
 
@@ -102,9 +105,9 @@ def _skf_runner(problem, method):
     return run
 
 
-def _mne_runner(problem, with_make):
+def _mne_inputs(problem):
+    """The problem as MNE objects: an evoked with the average-reference projector, a cov."""
     import mne
-    from mne.minimum_norm import apply_inverse, make_inverse_operator
 
     head, Y = problem["head"], problem["Y"]
     info = head.info.copy()
@@ -119,6 +122,21 @@ def _mne_runner(problem, with_make):
         nfree=1000,
         verbose=False,
     )
+    return evoked, cov
+
+
+def _apply_skf_runner(problem):
+    from skf_ref import apply_skf
+
+    evoked, cov = _mne_inputs(problem)
+    return lambda: apply_skf(evoked, problem["head"].fwd, cov)
+
+
+def _mne_runner(problem, with_make):
+    from mne.minimum_norm import apply_inverse, make_inverse_operator
+
+    head = problem["head"]
+    evoked, cov = _mne_inputs(problem)
 
     def make():
         return make_inverse_operator(
@@ -137,6 +155,8 @@ def _mne_runner(problem, with_make):
 def _runner(problem, path):
     if path.startswith("mne-sloreta"):
         return _mne_runner(problem, with_make=path.endswith("+make"))
+    if path == "apply_skf":
+        return _apply_skf_runner(problem)
     return _skf_runner(problem, path)
 
 
