@@ -23,7 +23,7 @@ import numpy as np
 
 from .checks import InputError, InputTypeError, check_array, check_choice, check_real, describe
 from .inverse import METHODS, SMOOTHERS, reconstruct
-from .priors import priors_from_snr
+from .tune import choose_priors
 
 __all__ = ["PICK_ORIS", "WhitenedProblem", "apply_skf", "prepare"]
 
@@ -246,8 +246,10 @@ def apply_skf(
         EEG forward solution; any channels it has beyond the evoked's are ignored.
     noise_cov : mne.Covariance or float or "baseline"
         See :func:`prepare`.
-    pm_snr_db, ep_snr_db : float
+    pm_snr_db, ep_snr_db : float or "auto"
         The priors' SNRs in dB (docs/model.md §4, "gain" convention, whitened lead field).
+        ``"auto"``: chosen by the marginal likelihood of the data (:func:`skf_ref.tune`,
+        -20..40 dB); the reconstruction's ``tuning`` says what was chosen.
     exponent : float
         Standardization exponent alpha, >= 0.
     smoother : {None, "rts-standardized", "rts-state"}
@@ -271,8 +273,9 @@ def apply_skf(
     problem = prepare(evoked, forward, noise_cov)
     if pick_ori == "vector" and problem.n_components == 1:
         raise InputError("pick_ori='vector' needs a free-orientation forward; this one is fixed")
-    n_times = problem.data.shape[1]
-    theta0, q = priors_from_snr(problem.leadfield, 1.0, pm_snr_db, ep_snr_db, n_times)
+    theta0, q, tuning = choose_priors(  # whitened: noise std 1
+        problem.leadfield, problem.data, noise_std=1.0, pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db
+    )
     rec = reconstruct(
         problem.leadfield,
         problem.data,
@@ -283,6 +286,7 @@ def apply_skf(
         smoother=smoother,
         method=method,
     )
+    rec.tuning = tuning
     kind = "vector" if pick_ori == "vector" else "amplitude" if problem.n_components == 3 else "z"
     stc = rec.to_stc(problem.forward["src"], problem.tmin, problem.tstep, kind=kind)
     return (stc, rec) if return_reconstruction else stc

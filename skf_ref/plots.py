@@ -22,6 +22,7 @@ __all__ = [
     "plot_average_reconstruction",
     "plot_estimate",
     "plot_exponent_comparison",
+    "plot_landscape",
     "plot_prior_grid",
     "plot_time_courses",
 ]
@@ -379,4 +380,56 @@ def plot_estimate(amplitude, times, positions=None, n_strongest=5, title=None, p
         fig.colorbar(dots, ax=axes[1:], label="dB re. maximum at that time", shrink=0.8)
     if title is not None:
         fig.suptitle(title)
+    return _finish(fig, path)
+
+
+# log-likelihood units shown below the chosen priors: a difference of more than a few units
+# is already decisive, and the far corners of a grid lie thousands below
+_LANDSCAPE_RANGE = 100.0
+
+
+def plot_landscape(result, path=None, title=None):
+    """The marginal likelihood over (EP-SNR, PM-SNR), with the chosen priors marked.
+
+    Parameters
+    ----------
+    result : skf_ref.tune.TuneResult
+        Its ``landscape`` (the coarse grid) and chosen ``pm_snr_db``, ``ep_snr_db``.
+    path : str or path-like, optional
+    title : str, optional
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+        A heat map of ``log p(Y) - max log p(Y)`` over the grid (a curve when one SNR was
+        fixed) and a star at the chosen point.
+    """
+    grid = result.landscape.pivot(index="pm_snr_db", columns="ep_snr_db", values="log_likelihood")
+    relative = grid.to_numpy() - result.log_likelihood
+    fig = _figure(5.2, 4.0)
+    ax = fig.add_subplot()
+    if 1 in relative.shape:  # one SNR was fixed: a curve
+        fixed_pm = relative.shape[0] == 1
+        axis = grid.columns if fixed_pm else grid.index
+        ax.plot(axis, relative.ravel(), "o-", color="tab:blue")
+        ax.axvline(result.ep_snr_db if fixed_pm else result.pm_snr_db, color="tab:red")
+        ax.set_xlabel("EP-SNR (dB)" if fixed_pm else "PM-SNR (dB)")
+        ax.set_ylabel("log-likelihood re. the chosen priors")
+    else:
+        image = ax.pcolormesh(
+            grid.columns,
+            grid.index,
+            relative,
+            shading="nearest",
+            cmap="viridis",
+            vmin=-_LANDSCAPE_RANGE,
+            vmax=0.0,
+        )
+        ax.plot(result.ep_snr_db, result.pm_snr_db, "*", ms=14, mfc="tab:red", mec="white")
+        ax.set_xlabel("EP-SNR (dB)")
+        ax.set_ylabel("PM-SNR (dB)")
+        fig.colorbar(image, ax=ax, extend="min", label="log-likelihood re. the chosen priors")
+    ax.set_title(
+        title or f"chosen: EP-SNR {result.ep_snr_db:.1f} dB, PM-SNR {result.pm_snr_db:.1f} dB"
+    )
     return _finish(fig, path)

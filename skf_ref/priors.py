@@ -138,7 +138,7 @@ def lead_field_amplitude(L, convention="gain"):
     return float(np.mean(norms**-0.5) / np.sqrt(scale))
 
 
-def priors_from_snr(L, noise_std, pm_snr_db, ep_snr_db, n_steps, convention="gain"):
+def priors_from_snr(L, noise_std, pm_snr_db, ep_snr_db, n_steps, convention="gain", data=None):
     """``(theta0, q)`` for a lead field, noise level and the two prior SNRs.
 
     Parameters
@@ -147,13 +147,16 @@ def priors_from_snr(L, noise_std, pm_snr_db, ep_snr_db, n_steps, convention="gai
     noise_std : float
         Noise standard deviation. For ``convention="toolbox"`` it is relative to
         ``max|Y|`` (the toolbox divides the data by their maximum first).
-    pm_snr_db, ep_snr_db : float
-        PM-SNR and EP-SNR in dB.
+    pm_snr_db, ep_snr_db : float or "auto"
+        PM-SNR and EP-SNR in dB. ``"auto"``: the value of largest marginal likelihood of
+        ``data`` within -20..40 dB (:func:`skf_ref.tune`, the other SNR held at its value).
     n_steps : int
         Number of time steps K.
     convention : {"gain", "toolbox"}
         See :func:`lead_field_amplitude`. ``"toolbox"`` also clamps the exponent as the
         toolbox does, so that ``SNR - PM >= 1`` dB with ``SNR = -20 log10(noise_std)``.
+    data : array_like, shape (n_channels, n_steps), optional
+        The data, needed for ``"auto"``.
 
     Returns
     -------
@@ -175,6 +178,8 @@ def priors_from_snr(L, noise_std, pm_snr_db, ep_snr_db, n_steps, convention="gai
     (1.0, 100.0)
     """
     noise_std = check_real("noise_std", noise_std, positive=True)
+    if "auto" in (pm_snr_db, ep_snr_db):
+        return _tuned(L, noise_std, pm_snr_db, ep_snr_db, n_steps, convention, data)
     pm_snr_db = check_db("pm_snr_db", pm_snr_db)
     amplitude = lead_field_amplitude(L, convention)
     if convention == "toolbox":
@@ -182,3 +187,21 @@ def priors_from_snr(L, noise_std, pm_snr_db, ep_snr_db, n_steps, convention="gai
         pm_snr_db = min(pm_snr_db, snr_db - 1.0)
     theta0 = prior_variance(pm_snr_db, noise_std, amplitude, np.shape(L)[1])
     return theta0, evolution_variance(ep_snr_db, theta0, n_steps)
+
+
+def _tuned(L, noise_std, pm_snr_db, ep_snr_db, n_steps, convention, data):
+    """``priors_from_snr`` with one or both SNRs ``"auto"``: chosen by the likelihood."""
+    from .tune import choose_priors  # the tuning builds on this module
+
+    if data is None:
+        raise InputError("pm_snr_db or ep_snr_db 'auto' needs the data: give data=Y")
+    if np.shape(data)[-1:] != (n_steps,):
+        raise InputError(f"data must have n_steps={n_steps} columns, got shape {np.shape(data)}")
+    return choose_priors(
+        L,
+        data,
+        noise_std=noise_std,
+        pm_snr_db=pm_snr_db,
+        ep_snr_db=ep_snr_db,
+        convention=convention,
+    )[:2]

@@ -95,6 +95,8 @@ class Reconstruction:
         The path that computed it: ``"filterpy"``, ``"dense"`` or ``"spectral"``.
     theta0, q, transition : float or ndarray, shape (n_sources, n_sources)
         The model's ``P_0``, ``Q`` and ``A`` as given (a scalar ``c`` means ``c I``).
+    tuning : skf_ref.tune.TuneResult or None
+        When the priors were chosen by the data (``"auto"``), how.
     """
 
     _ARRAYS = ("z", "x", "z_filtered", "x_filtered", "weights")
@@ -135,6 +137,7 @@ class Reconstruction:
         self.n_sources, self.n_times = int(n_sources), int(n_times)
         self.exponent, self.smoother, self.method = float(exponent), smoother, method
         self.theta0, self.q, self.transition = theta0, q, transition
+        self.tuning = None
 
     @classmethod
     def from_filter(cls, filtered, smoother, rts, *, model, exponent, method):

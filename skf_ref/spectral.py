@@ -3,7 +3,9 @@ r"""The exact fast path: the SKF and both smoothers in the singular basis of the
 It applies to the paper's model: ``A = a I``, ``Q = q I``, ``P_0 = theta0 I`` and a constant
 SPD noise covariance ``R``. Nothing is approximated; the result equals :mod:`skf_ref.dense`
 to rounding. Cost: one thin SVD, O(r) work per step, and a few (n, r) x (r, T) products,
-with ``r = rank(L) <= n_channels``. Memory O(n r + n T); no (n, n) matrix is formed.
+with ``r = rank(L) <= n_channels``. Memory O(n r + n T); no (n, n) matrix is formed. The
+rank-r recursions themselves, and the whitening and SVD (:class:`SpectralBasis`), live in
+:mod:`skf_ref.singular`; this module forms the n-dimensional outputs from them.
 
 Why it equals the dense recursion, equation by equation (docs/model.md §2-3)
 ---------------------------------------------------------------------------
@@ -60,113 +62,26 @@ Arrays are kept time-major, (T, n), internally; the result is handed out as (n, 
 import functools
 
 import numpy as np
-from scipy import linalg
 
 from . import memory
 from .checks import InputError
 from .result import Reconstruction
+from .singular import (
+    SpectralBasis,
+    backward,
+    covariances,
+    filter_means,
+    log_det_innovations,
+    log_likelihood,
+    rts_gains,
+)
 from .standardization import overflow_cause, standardization_weights, standardize
 
 __all__ = ["SpectralModel", "run"]
 
-_LOG_2PI = np.log(2 * np.pi)
 # Temporaries of at most this size when forming (T, n) outputs: small enough for the
 # allocator to reuse them (a fresh large allocation costs a page fault per 4 KiB).
 _CHUNK_BYTES = 4 * 2**20
-# Lead fields below this many entries are decomposed on one BLAS thread. On the project's
-# 2-core machine (validation/bench.py, --blas-threads) two threads sped the SVD of a
-# 64 x 9048 lead field up 1.24x when the machine was idle and slowed it 2-25x when another
-# process held a core; from 128 x 150 000 on, two threads gained 1.4x idle and lost 2x
-# loaded, so larger problems keep the library's default.
-_THREADED_SVD_ENTRIES = 2_000_000
-
-
-@functools.cache
-def _blas():
-    from threadpoolctl import ThreadpoolController
-
-    return ThreadpoolController()
-
-
-def _whitener(R):
-    """``M -> C^{-1} M`` and ``log|det C|`` with ``R = C C^T`` (Cholesky)."""
-    C = linalg.cholesky(R, lower=True)
-    if np.array_equal(C, C[0, 0] * np.eye(len(C))):
-        return (lambda M: M / C[0, 0]), len(C) * np.log(C[0, 0])
-    return functools.partial(linalg.solve_triangular, C, lower=True), np.sum(np.log(np.diag(C)))
-
-
-def _basis(Lw):
-    """Thin SVD of the whitened lead field, truncated to its numerical rank."""
-    # SVD of the transpose: (n, m) in C order is LAPACK's column-major (m, n), no copy.
-    threads = 1 if Lw.size < _THREADED_SVD_ENTRIES else None
-    with _blas().limit(limits=threads, user_api="blas"):
-        V, s, Ut = linalg.svd(Lw.T, full_matrices=False, lapack_driver="gesdd")
-    rank = int(np.sum(s > s[0] * max(Lw.shape) * np.finfo(float).eps))
-    U, s, V = Ut[:rank].T, s[:rank], V[:, :rank]
-    # The SVD gives each row V_j of V to an absolute accuracy of about eps: a column of L~
-    # much weaker than the others (||l_j|| << s_1) gets a row of size ~||l_j|| / s and only
-    # eps s / ||l_j|| relative accuracy. V_j = l_j^T U diag(1/s) (from L~ = U diag(s) V^T)
-    # is as accurate relative to its own size; for ||l_j|| < s_r its absolute error is at
-    # most the SVD's, so V stays orthonormal to rounding.
-    weak = np.linalg.norm(Lw, axis=0) < s[-1]
-    if weak.any():
-        V[weak] = (Lw[:, weak].T @ U) / s
-    return U, s, V
-
-
-def _covariances(s, a, q, theta0, n_times):
-    """``p_{t|t-1}``, ``p_{t|t}`` (T, r) and ``u_t = q / c_{t|t-1}`` (T,): data-free.
-
-    The complement's variance ``c`` grows as ``a^(2t)`` when ``|a| > 1`` and overflows on
-    long runs; only its ratio to ``q`` enters the smoother (:func:`_rts_gains`), so the
-    recursion carries ``u = q / c`` in [0, 1] instead: ``c' = a^2 c + q`` gives
-    ``u' = u / (a^2 + u)``.
-    """
-    p_pred, p_filt, u = np.empty((n_times, len(s))), np.empty((n_times, len(s))), np.empty(n_times)
-    p = np.full(len(s), theta0)
-    u_next = q / (a**2 * theta0 + q)
-    for t in range(n_times):
-        # P_{t|t-1} = a^2 P_{t-1|t-1} + q I                            §2.2 (4)
-        p_pred[t], u[t] = a**2 * p + q, u_next
-        # P_{t|t} = P_{t|t-1} - K S K^T: on span V p / (s^2 p + 1), none on the rest §2.2 (5)
-        p = p_filt[t] = p_pred[t] / (s**2 * p_pred[t] + 1)
-        u_next = u[t] / (a**2 + u[t])
-    return p_pred, p_filt, u
-
-
-def _means(s, eta, p_pred, a):
-    """``xi_t = V^T x_{t|t}`` (T, r) and the whitened innovations' log-likelihood terms."""
-    xi, x = np.empty_like(eta), np.zeros(eta.shape[1])
-    quadratic = 0.0
-    for t in range(len(eta)):
-        denom = s**2 * p_pred[t] + 1  # eigenvalues of S~ on span U
-        innovation = eta[t] - s * a * x  # U^T (y~_t - L~ x_{t|t-1})
-        # x_{t|t} = x_{t|t-1} + K~ e~_t with K~ = V diag(p s / (s^2 p + 1)) U^T §2.2 (5)
-        x = xi[t] = a * x + p_pred[t] * s / denom * innovation
-        quadratic += np.sum(innovation**2 / denom)
-    return xi, quadratic
-
-
-def _rts_gains(p_pred, p_filt, u, a):
-    """gamma_t (T-1, r) on span V and the scalar beta_t (T-1,) on its complement."""
-    gamma = a * p_filt[:-1] / p_pred[1:]
-    # beta_t = a c_{t|t} / c_{t+1|t} = a c_t / (a^2 c_t + q) = a / (a^2 + u_t)
-    beta = a / (a**2 + u[:-1])
-    return gamma, beta
-
-
-def _backward(z, gain, a, overwrite=False):
-    """``s_t = z_t + G_t (s_{t+1} - a z_t)``, ``s_T = z_T``; gain per step, (T-1, ...).
-
-    With ``overwrite`` the result replaces ``z`` (step t reads only ``z_t`` and ``s_{t+1}``).
-    """
-    s = z if overwrite else z.copy()
-    for t in range(len(z) - 2, -1, -1):
-        # the same, in place: s_t = (1 - a G_t) z_t + G_t s_{t+1}
-        s[t] *= 1 - a * gain[t]
-        s[t] += gain[t] * s[t + 1]
-    return s
 
 
 def _by_columns(n, T, fill):
@@ -211,7 +126,7 @@ class SpectralModel:
     ((9, 5), (9, 5), 6)
     """
 
-    def __init__(self, model, n_times):
+    def __init__(self, model, n_times, basis=None):
         problem = model.isotropic_problem()
         if problem:
             raise InputError(
@@ -220,13 +135,13 @@ class SpectralModel:
         a, q, theta0 = (model.scalar(name) for name in ("transition", "q", "theta0"))
         self.model, self.a, self.n_times = model, a, n_times
         self.n_channels, self.n_sources = model.L.shape
-        self._whiten, self._log_det_C = _whitener(model.R)
-        self.U, self.s, self.V = _basis(self._whiten(model.L))
+        self.basis = SpectralBasis(model.L, model.R) if basis is None else basis
+        self.U, self.s, self.V = self.basis.U, self.basis.s, self.basis.V
         self._V_squared = self.V**2
-        self.p_pred, self.p_filt, self._u = _covariances(self.s, a, q, theta0, n_times)
+        self.p_pred, self.p_filt, self._u = covariances(self.s, a, q, theta0, n_times)
         # w = (V o V) omega, omega = s^2 p / (s^2 p + 1)               §2.2 (7)
         self.omega = self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)
-        self._log_det_S = np.sum(np.log(self.s**2 * self.p_pred + 1))
+        self._log_det_S = log_det_innovations(self.s, self.p_pred)
         self._check_range()
 
     def _check_range(self):
@@ -289,17 +204,15 @@ class SpectralModel:
         Y = self.model.check_data(Y)
         if Y.shape != (m, T):
             raise InputError(f"Y must have shape ({m}, {T}), got {Y.shape}")
-        Yw = self._whiten(Y)
-        eta = Yw.T @ self.U  # (T, r)
-        rho_sq = np.sum((Yw - self.U @ eta.T) ** 2)  # data outside span U
-        xi, quadratic = _means(self.s, eta, self.p_pred, a)
-        log_likelihood = -0.5 * (T * m * _LOG_2PI + self._log_det_S + quadratic + rho_sq)
+        eta, rho_sq = self.basis.project(Y)  # U^T y~ (T, r) and the data outside span U
+        xi, quadratic = filter_means(self.s, eta, self.p_pred, a)
+        total = log_likelihood(quadratic, self._log_det_S, rho_sq, self.basis.log_det_C, m, T)
         z_filtered = functools.cache(lambda: self._standardized(xi, exponent)[0])
         x_filtered = functools.cache(lambda: self._expand(xi))
         x, z = x_filtered, z_filtered
-        gamma, beta = _rts_gains(self.p_pred, self.p_filt, self._u, a)
+        gamma, beta = rts_gains(self.p_pred, self.p_filt, self._u, a)
         if smoother == "rts-state":
-            xi_s = _backward(xi, gamma, a)
+            xi_s = backward(xi, gamma, a)
             x = functools.cache(lambda: self._expand(xi_s))
             z = functools.cache(lambda: self._standardized(xi_s, exponent)[0])
         elif smoother == "rts-standardized":
@@ -315,7 +228,7 @@ class SpectralModel:
             z_filtered=lambda: z_filtered().T,
             x_filtered=lambda: x_filtered().T,
             weights=lambda: self._weights(exponent).T,
-            log_likelihood=log_likelihood - T * self._log_det_C,
+            log_likelihood=total,
             n_sources=self.n_sources,
             n_times=T,
             exponent=exponent,
@@ -367,8 +280,8 @@ def run(model, Y, exponent, smoother):
 def _smooth_standardized(zf, zeta, V, gamma, beta, a):
     """``s = h + V delta`` of the module docstring, written over zf (T, n); ``zeta = zf V``."""
     beta_col = beta[:, None]
-    h = _backward(zf, beta_col, a, overwrite=True)  # scalar gains on whole vectors: O(n T)
-    chi = _backward(zeta, beta_col, a)  # = V^T h
+    h = backward(zf, beta_col, a, overwrite=True)  # scalar gains on whole vectors: O(n T)
+    chi = backward(zeta, beta_col, a)  # = V^T h
     delta = np.zeros_like(zeta)
     for t in range(len(zf) - 2, -1, -1):
         delta[t] = gamma[t] * delta[t + 1] + (gamma[t] - beta[t]) * (chi[t + 1] - a * zeta[t])

@@ -7,8 +7,9 @@ Each row runs one path on one size: the SKF with ``"rts-standardized"`` smoothin
 (``skf_ref.reconstruct`` with ``method`` = filterpy, dense or spectral, asking for ``z``;
 its time includes every preparation, the SVD among them), ``apply_skf`` (the MNE route at
 its defaults, exponent 0.5 without smoothing: channel picking, MNE's whitener, the spectral
-path and the source estimate, from an evoked, a forward and a covariance) or MNE-Python's
-sLORETA:
+path and the source estimate, from an evoked, a forward and a covariance), ``tune``
+(PM-SNR and EP-SNR chosen by marginal likelihood, :func:`skf_ref.tune`: a 13 x 13 grid
+over -20..40 dB and a bounded refinement, SVD included), or MNE-Python's sLORETA:
 ``mne-sloreta`` is ``mne.minimum_norm.apply_inverse`` on an inverse operator made
 beforehand, ``mne-sloreta+make`` also times ``make_inverse_operator`` (MNE's SVD),
 on the same sphere-model forward (``skf_ref.simulate.make_head_model``) and the same data
@@ -44,7 +45,7 @@ from skf_ref.files import atomic_path
 from skf_ref.provenance import blas_threads, machine
 
 SIZES = ((600, 64, 41), (1500, 64, 41), (9000, 64, 41), (9000, 64, 1000), (150000, 128, 1000))
-PATHS = ("filterpy", "dense", "spectral", "apply_skf", "mne-sloreta", "mne-sloreta+make")
+PATHS = ("filterpy", "dense", "spectral", "tune", "apply_skf", "mne-sloreta", "mne-sloreta+make")
 MONTAGES = {32: "biosemi32", 64: "biosemi64", 128: "biosemi128", 256: "biosemi256"}
 SLOW_SECONDS = 60.0  # stop repeating a path once its runs have taken this long in total
 
@@ -125,6 +126,12 @@ def _mne_inputs(problem):
     return evoked, cov
 
 
+def _tune_runner(problem):
+    from skf_ref.tune import tune
+
+    return lambda: tune(problem["head"].leadfield, problem["Y"], noise_std=problem["noise_std"])
+
+
 def _apply_skf_runner(problem):
     from skf_ref import apply_skf
 
@@ -157,6 +164,8 @@ def _runner(problem, path):
         return _mne_runner(problem, with_make=path.endswith("+make"))
     if path == "apply_skf":
         return _apply_skf_runner(problem)
+    if path == "tune":
+        return _tune_runner(problem)
     return _skf_runner(problem, path)
 
 

@@ -5,7 +5,7 @@ import re
 
 from ..checks import InputError, check_int, check_real
 
-__all__ = ["Parser", "db", "integer", "nonnegative", "progress"]
+__all__ = ["Parser", "db", "integer", "nonnegative", "progress", "report_tuning"]
 
 # Negative numbers, infinities and NaN are values, not options: "--snr-db -inf" parses.
 _NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
@@ -59,10 +59,15 @@ def _typed(check):
     return parse
 
 
-def db(maximum=300.0):
-    """A level in dB: finite, within +-``maximum`` (10**(dB/10) far from overflow)."""
+def db(maximum=300.0, auto=False):
+    """A level in dB: finite, within +-``maximum`` (10**(dB/10) far from overflow).
+
+    With ``auto``, the word "auto" is accepted too (priors chosen by the data).
+    """
 
     def level(text):
+        if auto and text == "auto":
+            return text
         value = check_real("value", _number(text))
         if abs(value) > maximum:
             raise InputError(f"value must be within +-{maximum:g} dB, got {text}")
@@ -109,3 +114,18 @@ def progress(args, text):
                 print(f" {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
 
     return stage()
+
+
+def report_tuning(args, tuning):
+    """Print the priors the data chose, and put them in ``args`` (for titles, settings)."""
+    import sys
+
+    if tuning is None:
+        return
+    args.pm_snr_db, args.ep_snr_db = tuning.pm_snr_db, tuning.ep_snr_db
+    args.tuned = True
+    print(
+        f"priors chosen by the data: PM-SNR {tuning.pm_snr_db:.2f} dB, EP-SNR "
+        f"{tuning.ep_snr_db:.2f} dB (log-likelihood {tuning.log_likelihood:.6g})",
+        file=sys.stderr,
+    )

@@ -8,7 +8,7 @@ import numpy as np
 
 from .. import memory
 from ..files import atomic_path
-from ._args import db, integer, nonnegative, progress
+from ._args import db, integer, nonnegative, progress, report_tuning
 
 __all__ = ["add_parser", "run"]
 
@@ -28,8 +28,12 @@ def add_parser(subparsers):
     )
     demo.add_argument("--out", type=Path, default=Path("skf-demo"), help="output folder")
     demo.add_argument("--snr-db", type=db(), default=30.0, help="data peak SNR (dB)")
-    demo.add_argument("--pm-snr-db", type=db(), default=0.0, help="PM-SNR prior (dB)")
-    demo.add_argument("--ep-snr-db", type=db(), default=20.0, help="EP-SNR prior (dB)")
+    demo.add_argument(
+        "--pm-snr-db", type=db(auto=True), default=0.0, help="PM-SNR prior (dB, or auto)"
+    )
+    demo.add_argument(
+        "--ep-snr-db", type=db(auto=True), default=20.0, help="EP-SNR prior (dB, or auto)"
+    )
     demo.add_argument(
         "--exponent", type=nonnegative(), default=1.25, help="standardization exponent alpha"
     )
@@ -53,10 +57,16 @@ def add_parser(subparsers):
 
 def _reconstructions(args, head, sim):
     from ..inverse import reconstruct
-    from ..priors import priors_from_snr
+    from ..tune import choose_priors
 
-    T = sim.Y.shape[1]
-    theta0, q = priors_from_snr(head.leadfield, sim.sigma, args.pm_snr_db, args.ep_snr_db, T)
+    theta0, q, tuning = choose_priors(
+        head.leadfield,
+        sim.Y,
+        noise_std=sim.sigma,
+        pm_snr_db=args.pm_snr_db,
+        ep_snr_db=args.ep_snr_db,
+    )
+    report_tuning(args, tuning)
     smoothers = {"filtered": None}
     if args.smoother != "none":
         smoothers["smoothed"] = args.smoother
@@ -81,6 +91,7 @@ def _settings(args, head, sim, theta0, q):
 
     return {
         "snr_db": args.snr_db,
+        "priors_chosen_by_the_data": getattr(args, "tuned", False),
         "pm_snr_db": args.pm_snr_db,
         "ep_snr_db": args.ep_snr_db,
         "exponent": args.exponent,

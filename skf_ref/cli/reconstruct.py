@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from ..checks import InputError
-from ._args import db, nonnegative
+from ._args import db, nonnegative, report_tuning
 
 __all__ = ["add_parser", "run"]
 
@@ -66,8 +66,12 @@ def add_parser(subparsers):
         "--baseline", action="store_true", help="estimate the noise from the samples at t <= 0"
     )
     model = parser.add_argument_group("the SKF")
-    model.add_argument("--pm-snr-db", type=db(), default=0.0, help="PM-SNR prior (dB)")
-    model.add_argument("--ep-snr-db", type=db(), default=20.0, help="EP-SNR prior (dB)")
+    model.add_argument(
+        "--pm-snr-db", type=db(auto=True), default=0.0, help="PM-SNR prior (dB, or auto)"
+    )
+    model.add_argument(
+        "--ep-snr-db", type=db(auto=True), default=20.0, help="EP-SNR prior (dB, or auto)"
+    )
     model.add_argument(
         "--exponent", type=nonnegative(), default=0.5, help="standardization exponent alpha"
     )
@@ -164,16 +168,16 @@ def _mne_route(args):
         method=args.method,
         return_reconstruction=True,
     )
+    report_tuning(args, rec.tuning)
     positions = [s["rr"][s["vertno"]] for s in forward["src"]]
     return rec, stc, recording.times, positions
 
 
 def _array_route(args):
-    import numpy as np
 
     from ..inverse import reconstruct
     from ..io import read_data, read_leadfield
-    from ..priors import priors_from_snr
+    from ..tune import choose_priors
 
     leadfield = read_leadfield(args.leadfield, key=args.key)
     recording = read_data(args.data, key=args.key, condition=args.condition)
@@ -193,8 +197,10 @@ def _array_route(args):
     if args.average_reference:
         L, Y = L - L.mean(axis=0), Y - Y.mean(axis=0)
     noise = _array_noise(args, recording, Y, L.shape[0])
-    sigma = noise.get("noise_std") or float(np.sqrt(np.mean(np.diag(noise["noise_cov"]))))
-    theta0, q = priors_from_snr(L, sigma, args.pm_snr_db, args.ep_snr_db, Y.shape[1])
+    theta0, q, tuning = choose_priors(
+        L, Y, **noise, pm_snr_db=args.pm_snr_db, ep_snr_db=args.ep_snr_db
+    )
+    report_tuning(args, tuning)
     rec = reconstruct(
         L,
         Y,

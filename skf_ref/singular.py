@@ -1,0 +1,251 @@
+r"""The SKF in the singular basis of the whitened lead field: the rank-r recursions.
+
+:mod:`skf_ref.spectral` derives, equation by equation, why the filter and both smoothers
+of the paper's model (``A = a I``, ``Q = q I``, ``P_0 = theta0 I``) reduce to recursions on
+``r = rank(L)`` numbers per step in the basis of the thin SVD ``L~ = U diag(s) V^T`` of the
+whitened lead field. This module holds those recursions and :class:`SpectralBasis`, the
+whitening and the SVD, which depend on ``L`` and ``R`` only.
+
+The recursions broadcast over leading dimensions of ``theta0`` and ``q``: with arrays of K
+priors they run K filters at once, which is how :meth:`SpectralBasis.log_likelihood`
+evaluates a whole grid of priors (docs/model.md §4) for about the cost of one filter.
+"""
+
+import functools
+
+import numpy as np
+from scipy import linalg
+
+from .checks import InputError
+
+__all__ = [
+    "SpectralBasis",
+    "backward",
+    "covariances",
+    "filter_means",
+    "log_det_innovations",
+    "log_likelihood",
+    "rts_gains",
+    "thin_svd",
+    "whitener",
+]
+
+_LOG_2PI = np.log(2 * np.pi)
+# Lead fields below this many entries are decomposed on one BLAS thread. On the project's
+# 2-core machine (validation/bench.py, --blas-threads) two threads sped the SVD of a
+# 64 x 9048 lead field up 1.24x when the machine was idle and slowed it 2-25x when another
+# process held a core; from 128 x 150 000 on, two threads gained 1.4x idle and lost 2x
+# loaded, so larger problems keep the library's default.
+_THREADED_SVD_ENTRIES = 2_000_000
+# Priors evaluated at once by SpectralBasis.log_likelihood: bounds its (T, K, r) arrays.
+_PRIORS_AT_ONCE = 16
+
+
+@functools.cache
+def _blas():
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
+
+
+def whitener(R):
+    """``M -> C^{-1} M`` and ``log|det C|`` with ``R = C C^T`` (Cholesky).
+
+    Parameters
+    ----------
+    R : ndarray, shape (n_channels, n_channels)
+
+    Returns
+    -------
+    whiten : callable
+    log_det_C : float
+    """
+    C = linalg.cholesky(R, lower=True)
+    if np.array_equal(C, C[0, 0] * np.eye(len(C))):
+        return (lambda M: M / C[0, 0]), len(C) * np.log(C[0, 0])
+    return functools.partial(linalg.solve_triangular, C, lower=True), np.sum(np.log(np.diag(C)))
+
+
+def thin_svd(Lw):
+    """Thin SVD of the whitened lead field, truncated to its numerical rank.
+
+    Parameters
+    ----------
+    Lw : ndarray, shape (n_channels, n_sources)
+
+    Returns
+    -------
+    U : ndarray, shape (n_channels, r)
+    s : ndarray, shape (r,)
+    V : ndarray, shape (n_sources, r)
+    """
+    # SVD of the transpose: (n, m) in C order is LAPACK's column-major (m, n), no copy.
+    threads = 1 if Lw.size < _THREADED_SVD_ENTRIES else None
+    with _blas().limit(limits=threads, user_api="blas"):
+        V, s, Ut = linalg.svd(Lw.T, full_matrices=False, lapack_driver="gesdd")
+    rank = int(np.sum(s > s[0] * max(Lw.shape) * np.finfo(float).eps))
+    U, s, V = Ut[:rank].T, s[:rank], V[:, :rank]
+    # The SVD gives each row V_j of V to an absolute accuracy of about eps: a column of L~
+    # much weaker than the others (||l_j|| << s_1) gets a row of size ~||l_j|| / s and only
+    # eps s / ||l_j|| relative accuracy. V_j = l_j^T U diag(1/s) (from L~ = U diag(s) V^T)
+    # is as accurate relative to its own size; for ||l_j|| < s_r its absolute error is at
+    # most the SVD's, so V stays orthonormal to rounding.
+    weak = np.linalg.norm(Lw, axis=0) < s[-1]
+    if weak.any():
+        V[weak] = (Lw[:, weak].T @ U) / s
+    return U, s, V
+
+
+def covariances(s, a, q, theta0, n_times):
+    """``p_{t|t-1}``, ``p_{t|t}`` (T, ..., r) and ``u_t = q / c_{t|t-1}`` (T, ...): data-free.
+
+    ``q`` and ``theta0`` are scalars or arrays of the same batch shape ``...``. The
+    complement's variance ``c`` grows as ``a^(2t)`` when ``|a| > 1`` and overflows on long
+    runs; only its ratio to ``q`` enters the smoother (:func:`rts_gains`), so the recursion
+    carries ``u = q / c`` in [0, 1] instead: ``c' = a^2 c + q`` gives ``u' = u / (a^2 + u)``.
+    """
+    q, theta0 = np.asarray(q, dtype=float), np.asarray(theta0, dtype=float)
+    batch = np.broadcast_shapes(q.shape, theta0.shape)
+    p_pred, p_filt = np.empty((n_times, *batch, len(s))), np.empty((n_times, *batch, len(s)))
+    u = np.empty((n_times, *batch))
+    q_, theta0_ = q[..., None], theta0[..., None]  # broadcast against s
+    p = np.broadcast_to(theta0_, (*batch, len(s)))
+    u_next = q / (a**2 * theta0 + q)
+    for t in range(n_times):
+        # P_{t|t-1} = a^2 P_{t-1|t-1} + q I                            §2.2 (4)
+        p_pred[t], u[t] = a**2 * p + q_, u_next
+        # P_{t|t} = P_{t|t-1} - K S K^T: on span V p / (s^2 p + 1), none on the rest §2.2 (5)
+        p = p_filt[t] = p_pred[t] / (s**2 * p_pred[t] + 1)
+        u_next = u[t] / (a**2 + u[t])
+    return p_pred, p_filt, u
+
+
+def filter_means(s, eta, p_pred, a):
+    """``xi_t = V^T x_{t|t}`` (T, ..., r) and the whitened innovations' quadratic form (...).
+
+    ``eta`` is the whitened data in the basis ``U``, (T, r); ``p_pred`` from
+    :func:`covariances`, with the same batch dimensions ``...`` as the result.
+    """
+    xi, x = np.empty(p_pred.shape), np.zeros(p_pred.shape[1:])
+    quadratic = np.zeros(p_pred.shape[1:-1])
+    for t in range(len(eta)):
+        denom = s**2 * p_pred[t] + 1  # eigenvalues of S~ on span U
+        innovation = eta[t] - s * a * x  # U^T (y~_t - L~ x_{t|t-1})
+        # x_{t|t} = x_{t|t-1} + K~ e~_t with K~ = V diag(p s / (s^2 p + 1)) U^T §2.2 (5)
+        x = xi[t] = a * x + p_pred[t] * s / denom * innovation
+        quadratic += np.sum(innovation**2 / denom, axis=-1)
+    return xi, quadratic
+
+
+def rts_gains(p_pred, p_filt, u, a):
+    """gamma_t (T-1, r) on span V and the scalar beta_t (T-1,) on its complement."""
+    gamma = a * p_filt[:-1] / p_pred[1:]
+    # beta_t = a c_{t|t} / c_{t+1|t} = a c_t / (a^2 c_t + q) = a / (a^2 + u_t)
+    beta = a / (a**2 + u[:-1])
+    return gamma, beta
+
+
+def backward(z, gain, a, overwrite=False):
+    """``s_t = z_t + G_t (s_{t+1} - a z_t)``, ``s_T = z_T``; gain per step, (T-1, ...).
+
+    With ``overwrite`` the result replaces ``z`` (step t reads only ``z_t`` and ``s_{t+1}``).
+    """
+    s = z if overwrite else z.copy()
+    for t in range(len(z) - 2, -1, -1):
+        # the same, in place: s_t = (1 - a G_t) z_t + G_t s_{t+1}
+        s[t] *= 1 - a * gain[t]
+        s[t] += gain[t] * s[t + 1]
+    return s
+
+
+def log_det_innovations(s, p_pred):
+    """``sum_t log det S~_t`` (...): ``S~_t`` has ``s^2 p_{t|t-1} + 1`` on span U, 1 off it."""
+    return np.sum(np.log(s**2 * p_pred + 1), axis=(0, -1))
+
+
+def log_likelihood(quadratic, log_det_S, rho_sq, log_det_C, n_channels, n_times):
+    """The innovation log-likelihood (docs/model.md §2) from the recursions' terms.
+
+    ``sum_t log N(e~_t; 0, S~_t)``: ``-(T m log 2 pi + sum log det S~ + quadratic form of the
+    innovations on span U + ||data off span U||^2) / 2``, minus ``T log|det C|`` for the
+    whitening.
+    """
+    T = n_times
+    return -0.5 * (T * n_channels * _LOG_2PI + log_det_S + quadratic + rho_sq) - T * log_det_C
+
+
+class SpectralBasis:
+    """Whitening and thin SVD of a lead field: the part of the spectral path set by L and R.
+
+    Parameters
+    ----------
+    L : ndarray, shape (n_channels, n_sources)
+    R : ndarray, shape (n_channels, n_channels)
+        SPD noise covariance.
+
+    Attributes
+    ----------
+    U : ndarray, shape (n_channels, r)
+    s : ndarray, shape (r,)
+    V : ndarray, shape (n_sources, r)
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> basis = SpectralBasis(rng.standard_normal((6, 9)), np.eye(6))
+    >>> Y = rng.standard_normal((6, 5))
+    >>> basis.log_likelihood(Y, theta0=[1.0, 2.0], q=[0.1, 0.1]).shape
+    (2,)
+    """
+
+    def __init__(self, L, R):
+        self.n_channels, self.n_sources = L.shape
+        self.whiten, self.log_det_C = whitener(R)
+        self.U, self.s, self.V = thin_svd(self.whiten(L))
+
+    @property
+    def rank(self):
+        """int : Numerical rank of the whitened lead field."""
+        return len(self.s)
+
+    def project(self, Y):
+        """Whitened data in the basis: ``eta = U^T y~`` (T, r) and ``||y~ - U eta||^2``."""
+        Yw = self.whiten(Y)
+        eta = Yw.T @ self.U
+        return eta, float(np.sum((Yw - self.U @ eta.T) ** 2))
+
+    def log_likelihood(self, Y, theta0, q, transition=1.0):
+        """The innovation log-likelihood of ``Y`` for each of many priors, no (n, T) array.
+
+        Parameters
+        ----------
+        Y : ndarray, shape (n_channels, n_times)
+        theta0, q : float or array_like, shape (K,)
+            Isotropic priors ``P_0 = theta0 I``, ``Q = q I``, K pairs (broadcast).
+        transition : float
+            ``A = transition I``.
+
+        Returns
+        -------
+        ndarray, shape (K,), or float for scalar priors
+            Equal to ``reconstruct(...).log_likelihood`` at each pair.
+        """
+        eta, rho_sq = self.project(Y)
+        theta0, q = np.broadcast_arrays(np.asarray(theta0, float), np.asarray(q, float))
+        flat_theta0, flat_q = theta0.ravel(), q.ravel()
+        out = np.empty(flat_theta0.shape)
+        for start in range(0, len(out), _PRIORS_AT_ONCE):
+            chunk = slice(start, start + _PRIORS_AT_ONCE)
+            priors = flat_q[chunk], flat_theta0[chunk]
+            p_pred = covariances(self.s, transition, *priors, len(eta))[0]
+            quadratic = filter_means(self.s, eta, p_pred, transition)[1]
+            log_det_S = log_det_innovations(self.s, p_pred)
+            out[chunk] = log_likelihood(
+                quadratic, log_det_S, rho_sq, self.log_det_C, self.n_channels, len(eta)
+            )
+        if not np.isfinite(out).all():
+            raise InputError(
+                "the log-likelihood is not finite for some priors: they are out of range at "
+                f"this lead field's scale (largest whitened singular value {self.s[0]:.3g})"
+            )
+        return out.reshape(theta0.shape) if theta0.ndim else float(out[0])

@@ -1,0 +1,125 @@
+"""Priors chosen by the data: the likelihood without outputs, its maximum, and its inputs."""
+
+import numpy as np
+import pytest
+
+import skf_ref
+from skf_ref import InputError, reconstruct
+from skf_ref.singular import SpectralBasis
+from skf_ref.tune import tune
+
+# The likelihood-only recursion and the full paths compute the same sum of the same terms
+# in other orders (the dense path through Cholesky factors of S): rounding, ~1e-15 relative.
+LIKELIHOOD_RTOL = 1e-11
+
+
+def state_space_data(seed, m=16, n=40, T=200, sigma=0.5, theta0=0.8, q=0.05):
+    """Data drawn from the model itself: x_0 ~ N(0, theta0 I), increments N(0, q I)."""
+    rng = np.random.default_rng(seed)
+    L = rng.standard_normal((m, n))
+    x = np.sqrt(theta0) * rng.standard_normal(n)
+    X = np.cumsum(np.sqrt(q) * rng.standard_normal((n, T)), axis=1) + x[:, None]
+    return L, L @ X + sigma * rng.standard_normal((m, T))
+
+
+@pytest.mark.parametrize("transition", [1.0, 0.9])
+def test_likelihood_without_outputs_equals_every_path(transition):
+    L, Y = state_space_data(0, T=30)
+    basis = SpectralBasis(L, 0.25 * np.eye(16))
+    priors = [(0.8, 0.05), (2.0, 0.001), (1e-3, 1.0)]
+    values = basis.log_likelihood(Y, [p[0] for p in priors], [p[1] for p in priors], transition)
+    for (theta0, q), value in zip(priors, values, strict=True):
+        for method in ("spectral", "dense"):
+            rec = reconstruct(
+                L, Y, noise_std=0.5, theta0=theta0, q=q, transition=transition, method=method
+            )
+            assert value == pytest.approx(rec.log_likelihood, rel=LIKELIHOOD_RTOL), method
+
+
+def test_neither_exponent_nor_smoother_changes_the_likelihood():
+    L, Y = state_space_data(1, T=20)
+    values = {
+        reconstruct(L, Y, noise_std=0.5, theta0=0.8, q=0.05, exponent=e, smoother=s).log_likelihood
+        for e in (0.5, 1.25)
+        for s in (None, "rts-standardized", "rts-state")
+    }
+    assert len(values) == 1
+
+
+def test_the_maximum_lands_near_the_truth():
+    # theta0 is seen through x_0 alone: 40 draws give a variance estimate with relative
+    # standard error sqrt(2 / 40) ~ 1 dB, more with 16 channels seeing 40 sources (over 20
+    # seeds the error's standard deviation was 1.7 dB, the largest 4.7 dB); q through all
+    # 40 x 200 increments (0.13 dB and 0.31 dB). Bounds: about 3.5 standard deviations.
+    L, Y = state_space_data(2)
+    result = tune(L, Y, noise_std=0.5)
+    assert abs(10 * np.log10(result.theta0 / 0.8)) < 6.0
+    assert abs(10 * np.log10(result.q / 0.05)) < 0.5
+    rec = reconstruct(L, Y, noise_std=0.5, theta0=result.theta0, q=result.q)
+    assert result.log_likelihood == pytest.approx(rec.log_likelihood, rel=LIKELIHOOD_RTOL)
+    # the refinement starts from the best cell and can only improve on the grid
+    assert result.log_likelihood >= result.landscape["log_likelihood"].max()
+    assert result.landscape.shape == (169, 5)
+
+
+def test_landscape_is_finite_over_the_default_grid_of_the_study():
+    from skf_ref.head import make_head_model
+    from skf_ref.simulate import p20n20_scenario, simulate
+
+    head = make_head_model(500)
+    sim = simulate(head, p20n20_scenario(), 10.0, seed=0)
+    result = tune(head.leadfield, sim.Y, noise_std=sim.sigma)
+    assert np.isfinite(result.landscape["log_likelihood"]).all()
+    assert result.landscape["pm_snr_db"].min() == -20 and result.landscape["ep_snr_db"].max() == 40
+
+
+def test_a_fixed_snr_and_auto_everywhere(mne_setup):
+    L, Y = state_space_data(3, T=60)
+    fixed = tune(L, Y, noise_std=0.5, pm_snr_db=0.0, grid=9)
+    assert fixed.pm_snr_db == 0.0 and fixed.landscape.shape == (9, 5)
+    theta0, q = skf_ref.priors_from_snr(L, 0.5, 0.0, "auto", 60, data=Y)
+    assert (theta0, q) == pytest.approx((fixed.theta0, fixed.q), rel=1e-6)
+    epochs = mne_setup["make_epochs"](target=300, seed=7)
+    stc, rec = skf_ref.apply_skf(
+        epochs.average(),
+        mne_setup["forward"],
+        1e-6,
+        pm_snr_db="auto",
+        ep_snr_db="auto",
+        return_reconstruction=True,
+    )
+    assert rec.tuning is not None and rec.theta0 == rec.tuning.theta0
+    assert np.isfinite(stc.data).all()
+
+
+@pytest.mark.parametrize(
+    "change, match",
+    [
+        (dict(pm_snr_db=(40, -20)), r"pm_snr_db must be a range \(lo, hi\) with lo < hi"),
+        (dict(ep_snr_db=(10, 10)), r"got \(10, 10\); give one number to fix it"),
+        (dict(pm_snr_db=(float("nan"), 40)), r"pm_snr_db\[0\] must be finite"),
+        (dict(ep_snr_db=(-20, 400)), r"ep_snr_db\[1\] must be <= 300 dB"),
+        (dict(pm_snr_db=(1, 2, 3)), "pm_snr_db must be a number or a range"),
+        (dict(grid=1), "grid must be >= 2"),
+        (dict(convention="toolbox", noise_std=None, noise_cov=np.eye(16)), "needs noise_std"),
+        (dict(transition=np.eye(40)), "transition must be a scalar"),
+    ],
+)
+def test_bad_ranges_are_refused(change, match):
+    L, Y = state_space_data(4, T=10)
+    kwargs = dict(noise_std=0.5) | change
+    with pytest.raises(InputError, match=match):
+        tune(L, Y, **kwargs)
+    with pytest.raises(InputError, match="'auto' needs the data"):
+        skf_ref.priors_from_snr(L, 0.5, "auto", 20.0, 10)
+
+
+def test_landscape_figure_marks_the_chosen_point():
+    from skf_ref.plots import plot_landscape
+
+    L, Y = state_space_data(5, T=20)
+    result = tune(L, Y, noise_std=0.5, grid=5)
+    fig = plot_landscape(result)
+    (ax,) = [ax for ax in fig.axes if ax.get_xlabel() == "EP-SNR (dB)"]
+    star = [line for line in ax.get_lines() if line.get_marker() == "*"][0]
+    assert (star.get_xdata()[0], star.get_ydata()[0]) == (result.ep_snr_db, result.pm_snr_db)
