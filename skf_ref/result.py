@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from .checks import InputError, check_array, check_int
+from .checks import InputError, check_array, check_choice, check_int
 from .standardization import overflow_cause, restandardize
 
 __all__ = ["Reconstruction", "amplitude_from_components", "readonly"]
@@ -119,11 +119,12 @@ class Reconstruction:
         q,
         transition=1.0,
         diagnose=None,
+        rows=None,
     ):
         self._arrays = dict(
             z=z, x=x, z_filtered=z_filtered, x_filtered=x_filtered, weights=weights
         )
-        self._diagnose = diagnose
+        self._diagnose, self._rows = diagnose, rows
         if not np.isfinite(log_likelihood):
             raise InputError(
                 f"the innovation log-likelihood is {log_likelihood}: the data are too large "
@@ -192,6 +193,59 @@ class Reconstruction:
             transition=model.transition,
             diagnose=lambda: overflow_cause(np.min(f["w"]), exponent),
         )
+
+    @property
+    def spectral_rows(self):
+        """skf_ref.rows.SpectralRows or None : What computes rows of the spectral outputs."""
+        return self._rows
+
+    def computed(self, name):
+        """Whether output ``name`` is held in memory already (bool)."""
+        return not callable(self._arrays[name])
+
+    def blocks(self, name, rows=None):
+        """Output ``name`` block of rows by block, without holding it whole.
+
+        Parameters
+        ----------
+        name : {"z", "x", "z_filtered", "x_filtered", "weights"}
+        rows : int, optional
+            Rows per block; default about 4 MiB a block.
+
+        Yields
+        ------
+        rows : slice
+        block : ndarray, shape (n_rows, n_times)
+        """
+        from .rows import BLOCK_BYTES, NAMES
+
+        check_choice("name", name, NAMES)
+        step = BLOCK_BYTES // (8 * self.n_times) if rows is None else rows
+        step = check_int("rows", max(1, step))
+        computed = self.computed(name) or self._rows is None
+        for start in range(0, self.n_sources, step):
+            where = slice(start, min(start + step, self.n_sources))
+            block = self._array(name)[where] if computed else self._rows.block(name, where).T
+            self._check_finite(name, block)
+            yield where, block
+
+    def to_zarr(self, path, arrays=("z",), chunks=None, overwrite=False):
+        """Stream outputs into a zarr store, one block of rows at a time.
+
+        See :func:`skf_ref.stream.to_zarr`.
+        """
+        from .stream import to_zarr
+
+        return to_zarr(self, path, arrays=arrays, chunks=chunks, overwrite=overwrite)
+
+    def to_dask(self, name="z", chunks=None):
+        """Output ``name`` as a Dask array whose blocks a cluster computes.
+
+        See :func:`skf_ref.stream.to_dask`.
+        """
+        from .stream import to_dask
+
+        return to_dask(self, name=name, chunks=chunks)
 
     def _check_finite(self, name, value):
         if not np.isfinite(value).all():

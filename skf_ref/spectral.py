@@ -63,9 +63,9 @@ import functools
 
 import numpy as np
 
-from . import memory
 from .checks import InputError
 from .result import Reconstruction
+from .rows import NAMES, SpectralRows
 from .singular import (
     SpectralBasis,
     backward,
@@ -75,28 +75,9 @@ from .singular import (
     log_likelihood,
     rts_gains,
 )
-from .standardization import overflow_cause, standardization_weights, standardize
+from .standardization import overflow_cause
 
 __all__ = ["SpectralModel", "run"]
-
-# Temporaries of at most this size when forming (T, n) outputs: small enough for the
-# allocator to reuse them (a fresh large allocation costs a page fault per 4 KiB).
-_CHUNK_BYTES = 4 * 2**20
-
-
-def _by_columns(n, T, fill):
-    """A (T, n) array filled by ``fill(columns, view, work)`` in chunks of bounded size.
-
-    ``work`` is a contiguous (T, chunk) scratch array, the same memory for every chunk.
-    """
-    memory.require(8 * n * T, f"a ({n}, {T}) output array")
-    out = np.empty((T, n))
-    step = max(1, _CHUNK_BYTES // (8 * T))
-    work = np.empty(T * min(step, n))
-    for start in range(0, n, step):
-        columns = slice(start, min(start + step, n))
-        fill(columns, out[:, columns], work[: T * (columns.stop - start)].reshape(T, -1))
-    return out
 
 
 class SpectralModel:
@@ -161,31 +142,6 @@ class SpectralModel:
         """int : Numerical rank of the whitened lead field."""
         return len(self.s)
 
-    def _raw_weights(self, columns, out):
-        # w_t = (V o V) omega_t                                        §2.2 (7)
-        return np.matmul(self.omega, self._V_squared[columns].T, out=out)
-
-    def _standardized(self, xi, exponent, project=False):
-        """z (T, n) from singular coordinates; with ``project``, also ``z V`` (T, r)."""
-        # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t           §2.2 (6)-(7)
-        u = xi / np.sqrt(self.p_pred)
-        projection = np.zeros_like(u) if project else None
-
-        def fill(c, view, work):
-            np.matmul(u, self.V[c].T, out=view)  # P_{t|t-1}^{-1/2} x_{t|t}
-            standardize(self._raw_weights(c, work), view, exponent, out=view, overwrite_w=True)
-            if project:  # while the chunk is in cache
-                projection[:] += view @ self.V[c]
-
-        return _by_columns(self.n_sources, self.n_times, fill), projection
-
-    def _expand(self, xi):
-        return _by_columns(
-            self.n_sources,
-            self.n_times,
-            lambda c, view, work: np.matmul(xi, self.V[c].T, out=view),
-        )
-
     def apply(self, Y, exponent, smoother):
         """Filter and smooth data ``Y``; equal to :func:`skf_ref.dense.run` on the model.
 
@@ -207,27 +163,19 @@ class SpectralModel:
         eta, rho_sq = self.basis.project(Y)  # U^T y~ (T, r) and the data outside span U
         xi, quadratic = filter_means(self.s, eta, self.p_pred, a)
         total = log_likelihood(quadratic, self._log_det_S, rho_sq, self.basis.log_det_C, m, T)
-        z_filtered = functools.cache(lambda: self._standardized(xi, exponent)[0])
-        x_filtered = functools.cache(lambda: self._expand(xi))
-        x, z = x_filtered, z_filtered
         gamma, beta = rts_gains(self.p_pred, self.p_filt, self._u, a)
-        if smoother == "rts-state":
-            xi_s = backward(xi, gamma, a)
-            x = functools.cache(lambda: self._expand(xi_s))
-            z = functools.cache(lambda: self._standardized(xi_s, exponent)[0])
-        elif smoother == "rts-standardized":
-            # z smooths its own z_{t|t} in place: asking for z alone holds one (T, n) array
-            z = functools.cache(
-                lambda: _smooth_standardized(
-                    *self._standardized(xi, exponent, project=True), self.V, gamma, beta, a
-                )
-            )
+        rows = SpectralRows(
+            self.V,
+            self.omega,
+            self.p_pred,
+            xi,
+            exponent,
+            smoother,
+            xi_smoothed=backward(xi, gamma, a) if smoother == "rts-state" else None,
+            gains=(gamma, beta, a),
+        )
         return Reconstruction(
-            z=lambda: z().T,
-            x=lambda: x().T,
-            z_filtered=lambda: z_filtered().T,
-            x_filtered=lambda: x_filtered().T,
-            weights=lambda: self._weights(exponent).T,
+            **{name: functools.partial(_transposed, rows, name) for name in NAMES},
             log_likelihood=total,
             n_sources=self.n_sources,
             n_times=T,
@@ -237,25 +185,13 @@ class SpectralModel:
             theta0=self.model.theta0,
             q=self.model.q,
             transition=self.model.transition,
-            diagnose=lambda: overflow_cause(self._min_raw_weight(), exponent),
+            diagnose=lambda: overflow_cause(rows.min_raw_weight(), exponent),
+            rows=rows,
         )
 
-    def _min_raw_weight(self):
-        """The smallest raw weight over every source and step (only to explain a failure)."""
-        step = max(1, _CHUNK_BYTES // (8 * self.n_times))
-        return min(
-            np.min(self.omega @ self._V_squared[start : start + step].T)
-            for start in range(0, self.n_sources, step)
-        )
 
-    def _weights(self, exponent):
-        return _by_columns(
-            self.n_sources,
-            self.n_times,
-            lambda c, view, work: standardization_weights(
-                self._raw_weights(c, view), exponent, out=view
-            ),
-        )
+def _transposed(rows, name):
+    return rows.array(name).T
 
 
 def run(model, Y, exponent, smoother):
@@ -275,19 +211,3 @@ def run(model, Y, exponent, smoother):
         Its arrays are computed on first access.
     """
     return SpectralModel(model, Y.shape[1]).apply(Y, exponent, smoother)
-
-
-def _smooth_standardized(zf, zeta, V, gamma, beta, a):
-    """``s = h + V delta`` of the module docstring, written over zf (T, n); ``zeta = zf V``."""
-    beta_col = beta[:, None]
-    h = backward(zf, beta_col, a, overwrite=True)  # scalar gains on whole vectors: O(n T)
-    chi = backward(zeta, beta_col, a)  # = V^T h
-    delta = np.zeros_like(zeta)
-    for t in range(len(zf) - 2, -1, -1):
-        delta[t] = gamma[t] * delta[t + 1] + (gamma[t] - beta[t]) * (chi[t + 1] - a * zeta[t])
-    step = max(1, _CHUNK_BYTES // (8 * V.shape[0]))
-    work = np.empty((min(step, len(h)), V.shape[0]))
-    for start in range(0, len(h), step):
-        rows = slice(start, min(start + step, len(h)))
-        h[rows] += np.matmul(delta[rows], V.T, out=work[: rows.stop - start])
-    return h

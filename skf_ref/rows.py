@@ -1,0 +1,175 @@
+"""The spectral path's outputs, any block of rows at a time (docs/model.md §2-3).
+
+Given the r x T quantities of one reconstruction (the filtered and smoothed singular
+coordinates, the covariance recursion, the scalar complement gains), every row of every
+output (``z``, ``x``, the weights, the smoothed ``z``) depends only on that row of ``V``:
+rows can be computed in any blocks, in memory (:meth:`SpectralRows.array`), streamed to disk
+or on a cluster (:meth:`SpectralRows.block`). The one exception is the paper's smoother,
+``"rts-standardized"``: its correction ``V delta`` needs ``zeta = V^T z_{t|t}`` summed over
+all rows, which one pass over the blocks computes first (r x T numbers; kept).
+
+Blocks are time-major, (n_times, n_rows), like the paths' internal arrays; results hand
+them out transposed.
+"""
+
+import numpy as np
+
+from . import memory
+from .singular import backward
+from .standardization import standardization_weights, standardize
+
+__all__ = ["BLOCK_BYTES", "NAMES", "SpectralRows"]
+
+#: The outputs a reconstruction holds.
+NAMES = ("z", "x", "z_filtered", "x_filtered", "weights")
+#: Temporaries of at most this size when forming (T, n) outputs: small enough for the
+#: allocator to reuse them (a fresh large allocation costs a page fault per 4 KiB) and for
+#: a block to stay in cache between the steps that touch it.
+BLOCK_BYTES = 4 * 2**20
+
+
+class SpectralRows:
+    """Rows of the outputs of one spectral reconstruction.
+
+    Parameters
+    ----------
+    V : ndarray, shape (n_sources, r)
+    omega : ndarray, shape (n_times, r)
+        ``s^2 p_{t|t-1} / (s^2 p_{t|t-1} + 1)``: the raw weights are ``(V o V) omega``.
+    p_pred : ndarray, shape (n_times, r)
+    xi : ndarray, shape (n_times, r)
+        Filtered singular coordinates ``V^T x_{t|t}``.
+    exponent : float
+    smoother : {None, "rts-standardized", "rts-state"}
+    xi_smoothed : ndarray, shape (n_times, r), optional
+        ``V^T x^s_t`` for ``"rts-state"``.
+    gains : (gamma, beta, a), optional
+        The smoother's gains (T-1, r), (T-1,) and the transition, for ``"rts-standardized"``.
+    """
+
+    def __init__(self, V, omega, p_pred, xi, exponent, smoother, xi_smoothed=None, gains=None):
+        self.V, self.V_squared, self.omega = V, V**2, omega
+        self.n_sources, self.n_times = V.shape[0], len(omega)
+        self.exponent, self.smoother, self.gains = exponent, smoother, gains
+        self.xi, self.xi_smoothed = xi, xi_smoothed
+        root = np.sqrt(p_pred)
+        # P_{t|t-1}^{-1/2} x = V diag(p^{-1/2}) xi                      §2.2 (6)
+        self.u = xi / root
+        self.u_smoothed = None if xi_smoothed is None else xi_smoothed / root
+        self._delta = None
+
+    # --- one block of columns (sources), time-major ---------------------------------------
+
+    def block(self, name, columns, out=None, work=None, delta=None):
+        """Rows ``columns`` of output ``name``, as a (n_times, n_rows) array.
+
+        Parameters
+        ----------
+        name : {"z", "x", "z_filtered", "x_filtered", "weights"}
+        columns : slice
+        out, work : ndarray, shape (n_times, n_rows), optional
+            Where to write, and scratch space.
+        delta : ndarray, shape (n_times, r), optional
+            The "rts-standardized" correction (:meth:`correction_from`); default computed
+            here by a pass over every row (:meth:`correction`).
+
+        Returns
+        -------
+        ndarray, shape (n_times, n_rows)
+        """
+        k = len(range(*columns.indices(self.n_sources)))
+        out = np.empty((self.n_times, k)) if out is None else out
+        work = np.empty((self.n_times, k)) if work is None else work
+        if name == "x_filtered" or (name == "x" and self.smoother != "rts-state"):
+            return np.matmul(self.xi, self.V[columns].T, out=out)
+        if name == "x":
+            return np.matmul(self.xi_smoothed, self.V[columns].T, out=out)
+        if name == "weights":
+            return standardization_weights(self._raw(columns, out), self.exponent, out=out)
+        smoothed = name == "z" and self.smoother == "rts-state"
+        self._standardized(self.u_smoothed if smoothed else self.u, columns, out, work)
+        if name == "z" and self.smoother == "rts-standardized":
+            self._smooth(columns, out, self.correction() if delta is None else delta)
+        return out
+
+    def _raw(self, columns, out):
+        # w_t = (V o V) omega_t                                        §2.2 (7)
+        return np.matmul(self.omega, self.V_squared[columns].T, out=out)
+
+    def _standardized(self, u, columns, out, work):
+        # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t           §2.2 (6)-(7)
+        np.matmul(u, self.V[columns].T, out=out)
+        standardize(self._raw(columns, work), out, self.exponent, out=out, overwrite_w=True)
+        return out
+
+    def _smooth(self, columns, out, delta):
+        """s = h + V delta (spectral module docstring) over one block of z_{t|t}, in place."""
+        gamma, beta, a = self.gains
+        backward(out, beta[:, None], a, overwrite=True)  # h: scalar gains, row by row
+        out += delta @ self.V[columns].T
+
+    def projection(self, columns):
+        """These rows' share of ``zeta = V^T z_{t|t}``: (n_times, r); the shares add up."""
+        k = len(range(*columns.indices(self.n_sources)))
+        out, work = np.empty((self.n_times, k)), np.empty((self.n_times, k))
+        return self._standardized(self.u, columns, out, work) @ self.V[columns]
+
+    def correction(self):
+        """delta (T, r) of the spectral module docstring, by one pass over every block."""
+        if self._delta is None:
+            zeta = np.zeros_like(self.u)
+            for columns, out, work in self._blocks():
+                zeta += self._standardized(self.u, columns, out, work) @ self.V[columns]
+            self._delta = self.correction_from(zeta)
+        return self._delta
+
+    def correction_from(self, zeta):
+        """delta (T, r) from ``zeta = V^T z_{t|t}`` (T, r), the sum of :meth:`projection`."""
+        gamma, beta, a = self.gains
+        chi = backward(zeta, beta[:, None], a)  # = V^T h
+        delta = np.zeros_like(zeta)
+        for t in range(len(zeta) - 2, -1, -1):
+            # delta_t = gamma_t delta_{t+1} + (gamma_t - beta_t)(chi_{t+1} - a zeta_t)
+            delta[t] = gamma[t] * delta[t + 1] + (gamma[t] - beta[t]) * (chi[t + 1] - a * zeta[t])
+        return delta
+
+    def _blocks(self, rows=None):
+        """Column slices of bounded size, with reused (T, k) buffers."""
+        step = max(1, rows or BLOCK_BYTES // (8 * self.n_times))
+        size = self.n_times * min(step, self.n_sources)
+        out, work = np.empty(size), np.empty(size)
+        for start in range(0, self.n_sources, step):
+            columns = slice(start, min(start + step, self.n_sources))
+            shape = (self.n_times, columns.stop - start)
+            size = shape[0] * shape[1]
+            yield columns, out[:size].reshape(shape), work[:size].reshape(shape)
+
+    # --- a whole output in memory -------------------------------------------------------
+
+    def array(self, name):
+        """Output ``name`` whole, (n_times, n_sources), filled block by block.
+
+        ``"z"`` of ``"rts-standardized"`` is filled with ``z_{t|t}`` and the projection
+        ``zeta`` in one pass, then smoothed block by block in place: one (T, n) array.
+        """
+        n, T = self.n_sources, self.n_times
+        memory.require(8 * n * T, f"a ({n}, {T}) output array")
+        result = np.empty((T, n))
+        two_passes = name == "z" and self.smoother == "rts-standardized" and self._delta is None
+        if two_passes:
+            zeta = np.zeros_like(self.u)
+            for columns, _, work in self._blocks():
+                view = result[:, columns]
+                zeta += self._standardized(self.u, columns, view, work) @ self.V[columns]
+            self._delta = self.correction_from(zeta)
+            for columns, _, _ in self._blocks():
+                view = result[:, columns]
+                self._smooth(columns, view, self._delta)
+            return result
+        for columns, _, work in self._blocks():
+            self.block(name, columns, out=result[:, columns], work=work)
+        return result
+
+    def min_raw_weight(self):
+        """The smallest raw weight over every source and step (only to explain a failure)."""
+        return min(np.min(self._raw(columns, out)) for columns, out, _ in self._blocks())

@@ -1,0 +1,146 @@
+"""Outputs in row blocks, streamed to zarr or computed by Dask, equal the in-memory ones."""
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from skf_ref import InputError, reconstruct
+
+NAMES = ("z", "x", "z_filtered", "x_filtered", "weights")
+SMOOTHERS = (None, "rts-standardized", "rts-state")
+# Blocks compute the same products on sub-blocks of V: the paper's smoother sums the
+# projection zeta over blocks in another order; everything else is bitwise equal.
+BLOCK_RTOL = 1e-13
+
+
+def problem(n=300, m=8, T=50, seed=0):
+    rng = np.random.default_rng(seed)
+    L = rng.standard_normal((m, n))
+    L -= L.mean(axis=0)
+    return L, rng.standard_normal((m, T))
+
+
+def run(smoother, method="spectral", **kwargs):
+    L, Y = problem(**kwargs)
+    return reconstruct(
+        L, Y, noise_std=1.0, theta0=1.0, q=0.1, exponent=1.25, smoother=smoother, method=method
+    )
+
+
+def relative(a, b):
+    return np.max(np.abs(a - b)) / np.max(np.abs(b))
+
+
+@pytest.mark.parametrize("method", ["spectral", "dense"])
+@pytest.mark.parametrize("smoother", SMOOTHERS)
+def test_blocks_equal_the_arrays(method, smoother):
+    whole = run(smoother, method, n=60)
+    for name in NAMES:
+        blocked = np.concatenate([b for _, b in run(smoother, method, n=60).blocks(name, 7)])
+        assert relative(blocked, getattr(whole, name)) <= BLOCK_RTOL, name
+
+
+@pytest.mark.parametrize("smoother", SMOOTHERS)
+def test_zarr_store_equals_the_arrays(tmp_path, smoother):
+    store = run(smoother).to_zarr(tmp_path / "r.zarr", arrays=NAMES, chunks=37)
+    whole = run(smoother)
+    for name in NAMES:
+        assert store[name].shape == (300, 50) and store[name].chunks == (37, 50)
+        assert relative(np.asarray(store[name][:]), getattr(whole, name)) <= BLOCK_RTOL, name
+    assert store.attrs["smoother"] == smoother and store.attrs["exponent"] == 1.25
+
+
+def test_zarr_store_is_whole_or_absent(tmp_path, monkeypatch):
+    from skf_ref.result import Reconstruction
+
+    path = tmp_path / "r.zarr"
+    rec = run("rts-state")
+    calls = []
+
+    def failing(self, name, rows=None):  # an interruption after the first block
+        for where, block in original(self, name, rows):
+            calls.append(where)
+            yield where, block
+            raise KeyboardInterrupt
+
+    original = Reconstruction.blocks
+    monkeypatch.setattr(Reconstruction, "blocks", failing)
+    with pytest.raises(KeyboardInterrupt):
+        rec.to_zarr(path, chunks=10)
+    assert calls and not path.exists() and not list(tmp_path.iterdir())
+    monkeypatch.undo()
+    rec.to_zarr(path)
+    with pytest.raises(InputError, match="exists: give overwrite=True"):
+        rec.to_zarr(path)
+    rec.to_zarr(path, arrays=("weights",), overwrite=True)
+    with pytest.raises(InputError, match="arrays must be one of"):
+        rec.to_zarr(tmp_path / "s.zarr", arrays=("zz",))
+
+
+def test_no_n_by_t_array_before_an_output_is_asked_for():
+    # what a spectral reconstruct holds is n x r (V and the SVD's workspace, here ~10 MB)
+    # and r x T; blocks of rows are about 4 MiB; one (n, T) output would be 160 MB
+    n, T = 20_000, 1000
+    L, Y = problem(n=n, m=16, T=T)
+    tracemalloc.start()
+    try:
+        rec = reconstruct(
+            L, Y, noise_std=1.0, theta0=1.0, q=0.1, exponent=1.25, smoother="rts-standardized"
+        )
+        prepared = tracemalloc.get_traced_memory()[1]
+        total = sum(float(block.sum()) for _, block in rec.blocks("z"))  # one block at a time
+        streamed = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    one_output = 8 * n * T
+    assert prepared < one_output / 8 and streamed < one_output / 4, (prepared, streamed)
+    assert total == pytest.approx(float(rec.z.sum()), rel=1e-9)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as local,
+        distributed.Client(local) as client,
+    ):
+        yield client
+
+
+@pytest.mark.parametrize("smoother", SMOOTHERS)
+def test_dask_array_on_a_local_cluster_equals_the_arrays(cluster, smoother):
+    array = run(smoother).to_dask("z", chunks=40)
+    whole = run(smoother).z
+    assert array.chunks[0] == (40,) * 7 + (20,)
+    # the r x T state is one task: it travels to each worker once, not once per block
+    state = [key for key in array.__dask_graph__() if str(key).startswith("skf-rows")]
+    assert len(state) == 1
+    assert relative(cluster.compute(array).result(), whole) <= BLOCK_RTOL
+
+
+def test_sweep_on_a_local_cluster_of_processes(cluster, tmp_path):
+    import joblib
+
+    from skf_ref.sweep import KEY, run_sweep
+
+    grid = dict(
+        snr_db=[20.0],
+        ep_snr_db=[0.0, 20.0],
+        pm_snr_db=[0.0],
+        exponent=[0.5],
+        smoother=[None, "rts-state"],
+        seed=[0, 1],
+    )
+    with joblib.parallel_config(backend="dask"):
+        remote = run_sweep(grid, tmp_path / "r.csv", n_jobs=2, progress=False, n_positions=500)
+    local = run_sweep(grid, tmp_path / "l.csv", progress=False, n_positions=500)
+    key = list(KEY)
+    a = remote.sort_values(key).reset_index(drop=True)
+    b = local.sort_values(key).reset_index(drop=True)
+    assert len(a) == 8 and (a[key] == b[key]).all().all()
+    # the workers run BLAS on one thread each, this process on its default: rounding only
+    numbers = [c for c in b.columns if b[c].dtype.kind == "f"]
+    np.testing.assert_allclose(a[numbers], b[numbers], rtol=1e-12)
