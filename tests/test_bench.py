@@ -101,3 +101,14 @@ def test_the_make_row_times_make_inverse_operator(monkeypatch):
         run()
         run()
         assert len(calls) - made_before == 2 * made_per_run, path
+
+
+def test_long_recording_reports_time_memory_and_the_disk(tmp_path):
+    from validation import long_recording
+
+    row = long_recording.measure(size=(300, 16, 400), folder=tmp_path)
+    assert row["gib_written"] == pytest.approx(8 * 300 * 400 / 2**30)
+    assert row["seconds"] > 0 and 0 < row["peak_rss_gib"] < 4
+    assert row["sequential_mib_s"] > 0 and row["fraction_of_disk"] > 0
+    assert not list(tmp_path.iterdir())  # the store and the raw file are removed
+    assert "Long recording" in long_recording.to_markdown(row)
