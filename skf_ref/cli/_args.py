@@ -5,7 +5,15 @@ import re
 
 from ..checks import InputError, check_int, check_real
 
-__all__ = ["Parser", "db", "integer", "nonnegative", "progress", "report_tuning"]
+__all__ = [
+    "Parser",
+    "add_skf_options",
+    "db",
+    "integer",
+    "nonnegative",
+    "progress",
+    "report_tuning",
+]
 
 # Negative numbers, infinities and NaN are values, not options: "--snr-db -inf" parses.
 _NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
@@ -128,4 +136,23 @@ def report_tuning(args, tuning):
         f"priors chosen by the data: PM-SNR {tuning.pm_snr_db:.2f} dB, EP-SNR "
         f"{tuning.ep_snr_db:.2f} dB (log-likelihood {tuning.log_likelihood:.6g})",
         file=sys.stderr,
+    )
+
+
+def add_skf_options(parser, *, exponent, smoother, smoother_help):
+    """The SKF's options, shared by the commands that run one: priors, exponent, smoother."""
+    parser.add_argument(
+        "--pm-snr-db", type=db(auto=True), default=0.0, help="PM-SNR prior (dB, or auto)"
+    )
+    parser.add_argument(
+        "--ep-snr-db", type=db(auto=True), default=20.0, help="EP-SNR prior (dB, or auto)"
+    )
+    parser.add_argument(
+        "--exponent", type=nonnegative(), default=exponent, help="standardization exponent alpha"
+    )
+    parser.add_argument(
+        "--smoother",
+        default=smoother,
+        choices=("none", "rts-standardized", "rts-state"),
+        help=smoother_help,
     )

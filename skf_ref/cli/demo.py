@@ -8,7 +8,7 @@ import numpy as np
 
 from .. import memory
 from ..files import atomic_path
-from ._args import db, integer, nonnegative, progress, report_tuning
+from ._args import add_skf_options, db, integer, progress, report_tuning
 
 __all__ = ["add_parser", "run"]
 
@@ -28,20 +28,11 @@ def add_parser(subparsers):
     )
     demo.add_argument("--out", type=Path, default=Path("skf-demo"), help="output folder")
     demo.add_argument("--snr-db", type=db(), default=30.0, help="data peak SNR (dB)")
-    demo.add_argument(
-        "--pm-snr-db", type=db(auto=True), default=0.0, help="PM-SNR prior (dB, or auto)"
-    )
-    demo.add_argument(
-        "--ep-snr-db", type=db(auto=True), default=20.0, help="EP-SNR prior (dB, or auto)"
-    )
-    demo.add_argument(
-        "--exponent", type=nonnegative(), default=1.25, help="standardization exponent alpha"
-    )
-    demo.add_argument(
-        "--smoother",
-        default="rts-standardized",
-        choices=("rts-standardized", "rts-state", "none"),
-        help="smoother of the second reconstruction ('none': the filter only)",
+    add_skf_options(
+        demo,
+        exponent=1.25,
+        smoother="rts-standardized",
+        smoother_help="smoother of the second reconstruction ('none': the filter only)",
     )
     demo.add_argument(
         "--positions",

@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from ..checks import InputError
-from ._args import db, nonnegative, report_tuning
+from ._args import add_skf_options, report_tuning
 
 __all__ = ["add_parser", "run"]
 
@@ -66,21 +66,7 @@ def add_parser(subparsers):
         "--baseline", action="store_true", help="estimate the noise from the samples at t <= 0"
     )
     model = parser.add_argument_group("the SKF")
-    model.add_argument(
-        "--pm-snr-db", type=db(auto=True), default=0.0, help="PM-SNR prior (dB, or auto)"
-    )
-    model.add_argument(
-        "--ep-snr-db", type=db(auto=True), default=20.0, help="EP-SNR prior (dB, or auto)"
-    )
-    model.add_argument(
-        "--exponent", type=nonnegative(), default=0.5, help="standardization exponent alpha"
-    )
-    model.add_argument(
-        "--smoother",
-        default="none",
-        choices=("none", "rts-standardized", "rts-state"),
-        help="RTS smoother",
-    )
+    add_skf_options(model, exponent=0.5, smoother="none", smoother_help="RTS smoother")
     model.add_argument(
         "--method",
         default="auto",
