@@ -28,14 +28,14 @@ def build_parser():
     argparse.ArgumentParser
     """
     from ..version import __version__
-    from . import demo, reconstruct, sweep
+    from . import conformance, demo, reconstruct, sweep
     from ._args import Parser
 
     parser = Parser(
         prog="skf-ref",
         description="Standardized Kalman filter (SKF) for EEG source localization: your own "
         "data in, source estimates out; the P20/N20 study of Prasikala et al. (2025) and "
-        "parameter sweeps over it.",
+        "parameter sweeps over it; conformance cases to check another implementation.",
     )
     parser.add_argument("--version", action="version", version=f"skf-ref {__version__}")
     parser.add_argument(
@@ -45,6 +45,7 @@ def build_parser():
     demo.add_parser(subparsers)
     reconstruct.add_parser(subparsers)
     sweep.add_parser(subparsers)
+    conformance.add_parser(subparsers)
     return parser
 
 

@@ -5,7 +5,7 @@ import re
 
 from ..checks import InputError, check_int, check_real
 
-__all__ = ["Parser", "db", "integer", "nonnegative", "progress"]
+__all__ = ["Parser", "db", "integer", "nonnegative", "positive", "progress"]
 
 # Negative numbers, infinities and NaN are values, not options: "--snr-db -inf" parses.
 _NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
@@ -76,6 +76,11 @@ def nonnegative(maximum=None):
     return _typed(
         lambda text: check_real("value", _number(text), nonnegative=True, maximum=maximum)
     )
+
+
+def positive():
+    """A finite number > 0."""
+    return _typed(lambda text: check_real("value", _number(text), positive=True))
 
 
 def integer(minimum=None, maximum=None):
