@@ -28,7 +28,7 @@ def build_parser():
     argparse.ArgumentParser
     """
     from ..version import __version__
-    from . import conformance, demo, reconstruct, sweep
+    from . import compare, conformance, demo, reconstruct, sweep
     from ._args import Parser
 
     parser = Parser(
@@ -46,6 +46,7 @@ def build_parser():
     reconstruct.add_parser(subparsers)
     sweep.add_parser(subparsers)
     conformance.add_parser(subparsers)
+    compare.add_parser(subparsers)
     return parser
 
 
@@ -64,7 +65,8 @@ def main(argv=None):
     Returns
     -------
     int
-        0 on success, 2 on a usage or input error, 130 when interrupted.
+        0 on success, 1 when ``compare`` finds a disagreement, 2 on a usage or input
+        error, 130 when interrupted.
     """
     argv = sys.argv[1:] if argv is None else list(argv)
     mistakes = (OSError, MemoryError)
