@@ -268,3 +268,16 @@ def test_console_exit_status_1_when_something_disagrees(tmp_path, exported):
     )
     assert result.returncode == 1 and result.stderr == ""
     assert "Likely cause: other_convention" in result.stdout
+
+
+def _first_column(text, header):
+    """The first column of the markdown table whose header starts with ``| header |``."""
+    lines = text[text.index(f"| {header} |") :].splitlines()[2:]
+    rows = [line for line in lines[: next(i for i, x in enumerate(lines) if not x.strip())]]
+    return [row.split("|")[1].strip().strip("`") for row in rows]
+
+
+def test_the_documentation_lists_every_case_and_every_suspect():
+    text = (Path(__file__).resolve().parents[1] / "docs" / "conformance.md").read_text()
+    assert _first_column(text, "case") == list(CASES)
+    assert _first_column(text, "suspect") == [suspect.name for suspect in SUSPECTS]
