@@ -185,9 +185,8 @@ def _average_reference(rng):
     L_unreferenced = rng.standard_normal((6, 8)) + 1.0
     Y = _data(rng, L_unreferenced, 0.2 * np.eye(6))
     L, Y = L_unreferenced - L_unreferenced.mean(axis=0), Y - Y.mean(axis=0)
-    return dict(L=L, Y=Y, noise_cov=0.04, theta0=1.0, q=0.5, exponent=1.25) | dict(
-        smoother="rts-standardized", L_unreferenced=L_unreferenced
-    )
+    inputs = dict(L=L, Y=Y, noise_cov=0.04, theta0=1.0, q=0.5, exponent=1.25)
+    return inputs | dict(smoother="rts-standardized", L_unreferenced=L_unreferenced)
 
 
 @_case("full_noise_cov", 4, "A full noise covariance R.")
@@ -202,9 +201,8 @@ def _full_noise_cov(rng):
 def _transition(rng):
     L = rng.standard_normal((6, 5))
     Y = _data(rng, L, 0.2 * np.eye(6))
-    return dict(L=L, Y=Y, noise_cov=0.04, theta0=1.0, q=0.4, transition=0.8) | dict(
-        exponent=1.25, smoother="rts-state"
-    )
+    inputs = dict(L=L, Y=Y, noise_cov=0.04, theta0=1.0, q=0.4, transition=0.8)
+    return inputs | dict(exponent=1.25, smoother="rts-state")
 
 
 @_case(
@@ -218,9 +216,8 @@ def _general_model(rng):
     Y = _data(rng, L, np.linalg.cholesky(R))
     A = 0.9 * np.eye(4) + 0.05 * rng.standard_normal((4, 4))
     theta0, q = _spd(rng, 4, 1.0, 0.5), _spd(rng, 4, 0.3, 0.2)
-    return dict(L=L, Y=Y, noise_cov=R, theta0=theta0, q=q, transition=A) | dict(
-        exponent=1.0, smoother="rts-standardized"
-    )
+    inputs = dict(L=L, Y=Y, noise_cov=R, theta0=theta0, q=q, transition=A)
+    return inputs | dict(exponent=1.0, smoother="rts-standardized")
 
 
 def _priors(rng, convention, pm_snr_db, signal):

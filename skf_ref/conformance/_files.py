@@ -152,8 +152,8 @@ def manifest(formats=FORMATS):
     Returns
     -------
     dict
-        The set's version, the package's, the tolerance, the layout of the variables and,
-        for each case, its files, what it exercises and its sizes.
+        The set's version, the package's, the tolerance, the variables and their layout
+        and, for each case, its files, what it exercises, what more it holds and its sizes.
     """
     return {
         "conformance_version": CONFORMANCE_VERSION,
@@ -168,6 +168,8 @@ def manifest(formats=FORMATS):
             "z, z_filtered, x, x_filtered, weights": "(n_sources, n_times)",
             "log_likelihood": "a scalar",
         },
+        "inputs": list(INPUTS),
+        "outputs": list(OUTPUTS),
         "documentation": "docs/conformance.md of the skf_ref repository",
         "cases": [
             {
@@ -175,6 +177,7 @@ def manifest(formats=FORMATS):
                 "files": [f"{case.name}.{fmt}" for fmt in formats],
                 "exercises": list(case.exercises),
                 "description": case.description,
+                "also_holds": list(case.extras),
                 "n_channels": case.inputs["L"].shape[0],
                 "n_sources": case.shape[0],
                 "n_times": case.shape[1],
