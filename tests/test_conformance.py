@@ -116,6 +116,18 @@ def test_export_is_byte_identical_from_run_to_run(tmp_path, exported):
         assert path.read_bytes() == (exported / path.name).read_bytes(), path.name
 
 
+def test_export_is_byte_identical_in_another_process(tmp_path, exported):
+    # another interpreter with another hash seed: no dates, no dict-order or set-order effects
+    command = [sys.executable, "-m", "skf_ref.cli", "conformance", "export", "again", "--quiet"]
+    env = ENV | {"PYTHONHASHSEED": "12345"}
+    result = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    again = sorted((tmp_path / "again").iterdir())
+    assert [path.name for path in again] == sorted(path.name for path in exported.iterdir())
+    for path in again:
+        assert path.read_bytes() == (exported / path.name).read_bytes(), path.name
+
+
 def test_manifest(exported):
     manifest = json.loads((exported / "manifest.json").read_text())
     assert manifest["conformance_version"] == CONFORMANCE_VERSION
