@@ -12,7 +12,8 @@ Two layers, and the arrows point one way:
   :mod:`skf_ref.kalman`, :mod:`skf_ref.spectral`), the result type (:mod:`skf_ref.result`),
   the model (:mod:`skf_ref.model`), the priors (:mod:`skf_ref.priors`), the
   standardization (:mod:`skf_ref.standardization`), input checks (:mod:`skf_ref.checks`),
-  memory, files and provenance;
+  memory, files and provenance, and the conformance cases with their comparison
+  (:mod:`skf_ref.conformance`, :func:`compare`, :mod:`skf_ref.suspects`);
 - **the study**: the head model (:mod:`skf_ref.head`), the P20/N20 scenario
   (:mod:`skf_ref.simulate`), regions and metrics (:mod:`skf_ref.regions`,
   :mod:`skf_ref.metrics`), figures (:mod:`skf_ref.plots`), sweeps (:mod:`skf_ref.sweep`)
@@ -40,6 +41,7 @@ _HOMES = {
     "evolution_variance": "priors",
     "lead_field_amplitude": "priors",
     "priors_from_snr": "priors",
+    "compare": "comparison",
 }
 
 __all__ = [*_HOMES, "__version__"]

@@ -17,12 +17,25 @@ from scipy import linalg
 from .result import Reconstruction
 from .standardization import inverse_sqrt, raw_weights, standardize
 
-__all__ = ["run", "kalman_filter", "rts"]
+__all__ = ["run", "kalman_filter", "rts", "predict", "update"]
 
 _LOG_2PI = np.log(2 * np.pi)
 
 
-def _predict(x, P, A, Q):
+def predict(x, P, A, Q):
+    """One prediction, §2.2 eq. (4): ``x_{t|t-1}, P_{t|t-1}`` from ``x_{t-1|t-1}, P_{t-1|t-1}``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n_sources,)
+    P, A, Q : ndarray, shape (n_sources, n_sources)
+
+    Returns
+    -------
+    x_pred : ndarray, shape (n_sources,)
+    P_pred : ndarray, shape (n_sources, n_sources)
+        Symmetrized.
+    """
     # x_{t|t-1} = A x_{t-1|t-1}                                     §2.2 (4)
     x_pred = A @ x
     # P_{t|t-1} = A P_{t-1|t-1} A^T + Q                             §2.2 (4)
@@ -30,7 +43,33 @@ def _predict(x, P, A, Q):
     return x_pred, (P_pred + P_pred.T) / 2
 
 
-def _update(x_pred, P_pred, y, L, R):
+def update(x_pred, P_pred, y, L, R):
+    """One update, §2.2 eq. (5), with the step's innovation log-likelihood.
+
+    Parameters
+    ----------
+    x_pred : ndarray, shape (n_sources,)
+    P_pred : ndarray, shape (n_sources, n_sources)
+    y : ndarray, shape (n_channels,)
+    L : ndarray, shape (n_channels, n_sources)
+    R : ndarray, shape (n_channels, n_channels)
+
+    Returns
+    -------
+    x : ndarray, shape (n_sources,)
+        ``x_{t|t}``.
+    P : ndarray, shape (n_sources, n_sources)
+        ``P_{t|t}``, symmetrized.
+    K : ndarray, shape (n_sources, n_channels)
+    S : ndarray, shape (n_channels, n_channels)
+    log_likelihood : float
+        ``log N(y_t - L x_{t|t-1}; 0, S_t)``.
+
+    Raises
+    ------
+    scipy.linalg.LinAlgError
+        If ``S_t`` is not positive definite in double precision.
+    """
     # S_t = L P_{t|t-1} L^T + R                                     §2.2 (5)
     S = L @ P_pred @ L.T + R
     try:
@@ -80,9 +119,9 @@ def kalman_filter(L, Y, R, A, Q, P0, exponent):
         out[key] = np.empty((T, n, n))
     x, P, total = np.zeros(n), P0, 0.0
     for t in range(T):
-        x_pred, P_pred = _predict(x, P, A, Q)
+        x_pred, P_pred = predict(x, P, A, Q)
         try:
-            x, P, K, S, log_likelihood = _update(x_pred, P_pred, Y[:, t], L, R)
+            x, P, K, S, log_likelihood = update(x_pred, P_pred, Y[:, t], L, R)
             P_pred_inv_sqrt = inverse_sqrt(P_pred)
         except linalg.LinAlgError as err:
             raise linalg.LinAlgError(f"at step {t + 1}: {err}") from err

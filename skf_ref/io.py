@@ -40,6 +40,7 @@ __all__ = [
     "Recording",
     "read_data",
     "read_leadfield",
+    "read_variables",
     "write_reconstruction",
     "write_stc",
 ]
@@ -126,8 +127,25 @@ def _pick(variables, key, conventional, path):
     )
 
 
-def _variables(path):
-    """Every variable of a .npz or .mat file, by name."""
+def read_variables(path):
+    """Every variable of a ``.npz`` or ``.mat`` (v5 or v7.3) file, by name.
+
+    MATLAB's 1 x 1 and 1 x n arrays come back squeezed (a number, a vector), text as
+    ``str``; NumPy's arrays as they were saved.
+
+    Parameters
+    ----------
+    path : path-like
+        Ends in ``.npz`` or ``.mat``.
+
+    Returns
+    -------
+    dict
+        ``{name: value}``; MATLAB's own header entries (``__header__`` ...) included.
+    """
+    path = _existing(path)
+    if path.suffix not in (".npz", ".mat"):
+        raise InputError(f"{path}: expected a .npz or .mat file, got {path.suffix!r}")
     if path.suffix == ".npz":
         with _reading(path, "a NumPy .npz archive"), np.load(path, allow_pickle=False) as npz:
             return {k: npz[k] for k in npz.files}
@@ -177,7 +195,7 @@ def read_leadfield(path, *, key=None):
             f"{path}: unknown lead-field format {path.suffix!r}; give .npy, .npz, .mat or an "
             "MNE -fwd.fif"
         )
-    variables = _variables(path)
+    variables = read_variables(path)
     data = check_array(f"{path}", _pick(variables, key, _LEADFIELD_KEYS, path), (None, None))
     positions = variables.get("positions")
     if positions is not None:
@@ -227,7 +245,7 @@ def read_data(path, *, key=None, condition=None):
             data = np.load(path, allow_pickle=False)
         return Recording(check_array(f"{path}", data, ("n_channels", "n_times")))
     if path.suffix in (".npz", ".mat"):
-        variables = _variables(path)
+        variables = read_variables(path)
         data = check_array(f"{path}", _pick(variables, key, _DATA_KEYS, path), (None, None))
         times = variables.get("times")
         return Recording(

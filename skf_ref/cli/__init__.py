@@ -28,14 +28,14 @@ def build_parser():
     argparse.ArgumentParser
     """
     from ..version import __version__
-    from . import demo, reconstruct, sweep
+    from . import compare, conformance, demo, reconstruct, sweep
     from ._args import Parser
 
     parser = Parser(
         prog="skf-ref",
         description="Standardized Kalman filter (SKF) for EEG source localization: your own "
         "data in, source estimates out; the P20/N20 study of Prasikala et al. (2025) and "
-        "parameter sweeps over it.",
+        "parameter sweeps over it; conformance cases to check another implementation.",
     )
     parser.add_argument("--version", action="version", version=f"skf-ref {__version__}")
     parser.add_argument(
@@ -45,6 +45,8 @@ def build_parser():
     demo.add_parser(subparsers)
     reconstruct.add_parser(subparsers)
     sweep.add_parser(subparsers)
+    conformance.add_parser(subparsers)
+    compare.add_parser(subparsers)
     return parser
 
 
@@ -63,7 +65,8 @@ def main(argv=None):
     Returns
     -------
     int
-        0 on success, 2 on a usage or input error, 130 when interrupted.
+        0 on success, 1 when ``compare`` finds a disagreement, 2 on a usage or input
+        error, 130 when interrupted.
     """
     argv = sys.argv[1:] if argv is None else list(argv)
     mistakes = (OSError, MemoryError)

@@ -11,6 +11,7 @@ __all__ = [
     "db",
     "integer",
     "nonnegative",
+    "positive",
     "progress",
     "report_tuning",
 ]
@@ -89,6 +90,11 @@ def nonnegative(maximum=None):
     return _typed(
         lambda text: check_real("value", _number(text), nonnegative=True, maximum=maximum)
     )
+
+
+def positive():
+    """A finite number > 0."""
+    return _typed(lambda text: check_real("value", _number(text), positive=True))
 
 
 def integer(minimum=None, maximum=None):

@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from ..checks import InputError
-from ._args import add_skf_options, report_tuning
+from ._args import add_skf_options, positive, report_tuning
 
 __all__ = ["add_parser", "run"]
 
@@ -34,16 +34,6 @@ def _output(text):
     return path
 
 
-def _positive(text):
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
-    return value
-
-
 def add_parser(subparsers):
     """Add ``reconstruct`` to the ``skf-ref`` subcommands."""
     parser = subparsers.add_parser(
@@ -61,7 +51,7 @@ def add_parser(subparsers):
     inputs.add_argument("--key", help="variable name in .npz/.mat files (data and lead field)")
     noise = parser.add_argument_group("noise: one of")
     noise.add_argument("--noise-cov", type=Path, help="MNE noise covariance (-cov.fif)")
-    noise.add_argument("--noise-std", type=_positive, help="noise standard deviation (V)")
+    noise.add_argument("--noise-std", type=positive(), help="noise standard deviation (V)")
     noise.add_argument(
         "--baseline", action="store_true", help="estimate the noise from the samples at t <= 0"
     )

@@ -1,0 +1,58 @@
+"""``skf-ref compare``: your SKF's outputs against a conformance case; the likely mistake."""
+
+import json
+from pathlib import Path
+
+from ._args import positive
+
+__all__ = ["add_parser", "run"]
+
+_EXAMPLES = """\
+examples:
+  skf-ref compare skf-cases/average_reference.mat mine.mat
+  skf-ref compare skf-cases/average_reference.npz mine.csv --json report.json
+
+THEIRS holds any of z, z_filtered, x, x_filtered, weights ((n_sources, n_times)) and
+log_likelihood: a .npz or .mat file with those names, or a .csv long table with the
+header output,source,step,value (source and step counting from 1; empty for
+log_likelihood). Exit status: 0 when every output given agrees, 1 when one does not
+(the report names the known mistake that reproduces the numbers, if one does), 2 when
+the files cannot be used.
+"""
+
+
+def add_parser(subparsers):
+    """Add ``compare`` to the ``skf-ref`` subcommands."""
+    parser = subparsers.add_parser(
+        "compare",
+        help="check your SKF's outputs against a conformance case and name the likely mistake",
+        description="Compare another implementation's outputs with a conformance case "
+        "(skf-ref conformance export): per output, the largest relative difference, the "
+        "first time step over the tolerance and a verdict; when something disagrees, which "
+        "known mistake reproduces the numbers.",
+        epilog=_EXAMPLES,
+    )
+    parser.add_argument("case", type=Path, metavar="CASE_FILE", help="a case's .npz or .mat")
+    parser.add_argument("theirs", type=Path, metavar="THEIRS", help="your outputs: .npz/.mat/.csv")
+    parser.add_argument(
+        "--tolerance",
+        type=positive(),
+        help="largest relative difference that agrees (default: the case's, 1e-6)",
+    )
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the result as JSON")
+    parser.set_defaults(run=run)
+
+
+def run(args):
+    """Run ``skf-ref compare``: print the report; exit status 1 when something disagrees."""
+    from ..comparison import compare
+    from ..files import atomic_path
+
+    result = compare(args.case, args.theirs, tolerance=args.tolerance)
+    if args.json is not None:
+        with atomic_path(args.json) as tmp:
+            tmp.write_text(json.dumps(result.to_dict(), indent=1) + "\n", encoding="utf-8")
+    print(result.report())
+    if not result.agrees:
+        raise SystemExit(1)
+    return result

@@ -1,0 +1,56 @@
+"""Conformance cases: small fixed problems and the dense path's answers, for any language.
+
+A lab that writes the SKF in MATLAB, C++, Julia or on a GPU runs these cases and compares
+its outputs with :func:`skf_ref.compare` (``skf-ref compare``). Each case is a few channels,
+sources and steps, generated from a fixed seed; :func:`export` writes one file per case
+(NumPy ``.npz`` or MATLAB v5 ``.mat``) and ``manifest.json``, byte for byte the same from
+run to run on one machine. docs/conformance.md describes the files for those who run them.
+
+Every case file holds these, in MNE-Python's layout (docs/model.md §1):
+
+=====================  =======================  =============================================
+variable               shape                    meaning
+=====================  =======================  =============================================
+``L``                  (n_channels, n_sources)  lead field
+``Y``                  (n_channels, n_times)    data; column ``t`` is ``y_t``
+``noise_cov``          scalar or (m, m)         ``R``; a scalar ``c`` means ``c I``
+``theta0``             scalar or (n, n)         ``P_0``; a scalar ``c`` means ``c I``
+``q``                  scalar or (n, n)         ``Q``; a scalar ``c`` means ``c I``
+``transition``         scalar or (n, n)         ``A``; a scalar ``c`` means ``c I``
+``exponent``           scalar                   alpha of §2.2 eq. (7)
+``smoother``           text                     ``"none"``, ``"rts-standardized"`` or
+                                                ``"rts-state"`` (docs/model.md §3)
+``z`` ...              (n_sources, n_times)     expected ``z``, ``z_filtered``, ``x``,
+                                                ``x_filtered``, ``weights``
+``log_likelihood``     scalar                   expected innovation log-likelihood
+``case`` ...           text, scalars            ``case``, ``description``, ``exercises``,
+                                                ``conformance_version``, ``tolerance``,
+                                                ``skf_ref_version``
+=====================  =======================  =============================================
+
+Some cases hold more. The prior cases: ``pm_snr_db``, ``ep_snr_db``, ``convention`` and
+``noise_std``, of which ``theta0`` and ``q`` are :func:`skf_ref.priors_from_snr` with
+``n_steps = n_times`` (``noise_cov = noise_std**2``). The toolbox cases also
+``Y_unscaled`` and ``data_scale``: ``Y = Y_unscaled / data_scale`` with
+``data_scale = max|Y_unscaled|``, and ``noise_std`` is relative to it. The
+average-referenced case: ``L_unreferenced``, of which ``L`` is each column minus its mean
+over the channels.
+"""
+
+from ._cases import CONFORMANCE_VERSION, EXTRAS, INPUTS, OUTPUTS, TOLERANCE, Case, cases
+from ._files import FORMATS, export, manifest, read_case, write_case
+
+__all__ = [
+    "CONFORMANCE_VERSION",
+    "EXTRAS",
+    "FORMATS",
+    "INPUTS",
+    "OUTPUTS",
+    "TOLERANCE",
+    "Case",
+    "cases",
+    "export",
+    "manifest",
+    "read_case",
+    "write_case",
+]
