@@ -172,22 +172,6 @@ def test_parquet_results_are_resumable(tmp_path):
     assert not table.duplicated(list(KEY)).any()
 
 
-def test_same_sweep_on_a_local_dask_cluster(tmp_path):
-    distributed = pytest.importorskip("distributed")
-    import joblib
-
-    with distributed.Client(processes=False, n_workers=1, threads_per_worker=2) as _client:
-        with joblib.parallel_config(backend="dask"):
-            table = run_sweep(
-                small_grid(), tmp_path / "r.csv", n_jobs=2, progress=False, n_positions=POSITIONS
-            )
-    local = run_sweep(small_grid(), tmp_path / "l.csv", progress=False, n_positions=POSITIONS)
-    key = list(KEY)
-    a = table.sort_values(key).reset_index(drop=True)
-    b = local.sort_values(key).reset_index(drop=True)
-    pd.testing.assert_frame_equal(a, b)
-
-
 def test_paper_grid_is_the_papers():
     grid = paper_grid()
     assert grid["snr_db"] == [10.0, 20.0, 30.0]
