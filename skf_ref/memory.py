@@ -67,7 +67,7 @@ def spectral_memory(n_sources, n_channels, n_times):
     Examples
     --------
     >>> spectral_memory(150_000, 128, 1000) / 2**30  # GiB
-    1.66...
+    1.68...
     """
     return 8 * n_sources * (4 * n_channels + n_times)
 
