@@ -1,4 +1,4 @@
-"""The spherical EEG head model with a volume source grid (docs/model.md §5).
+"""The spherical EEG head models: a volume grid, or cortex and thalamus (docs/model.md §5).
 
 Source grid. Positions ``origin + spacing * (k + u)`` for integer ``k`` inside the *source
 ball*, the brain compartment (innermost sphere layer) shrunk by ``MINDIST_MM`` = 5 mm, MNE's
@@ -14,93 +14,63 @@ Whether a grid can hold the scenario is checked where the two meet, in
 :func:`skf_ref.simulate.simulate`: each source's 15 mm region (the metrics' region) must
 contain a grid position, which a spacing of at most 2 * 15 mm / sqrt(3) (the covering radius
 of a cubic lattice; about 420 positions for ``biosemi64``) always ensures.
+
+Cortex and thalamus in a sphere. The sphere has no anatomy; its nearest equivalent of the
+realistic head's cortex + thalamus source space (:data:`SHELL_DEPTH_MM`,
+:data:`THALAMUS_RADIUS_MM`, :data:`THALAMUS_MNI_MM`) is, on a 5 mm lattice centred like the
+volume grid: the *cortex*, every position 5-20 mm below the brain sphere's surface at or above
+the plane of the montage's fiducials (the sample subject's 5 mm cortex positions lie 9-53 mm,
+median 28 mm, below its inner skull, and all above that plane; 20 mm takes in the depth of
+the scenario's superficial source, 17 mm, on the sulcal wall); and two *thalami*, balls of
+the volume of the sample subject's left thalamus label (7.9 cm³, radius 12.4 mm) around the
+MNI centroids of the sample subject's thalami, (-12, -19, 7) and (12, -19, 7) mm.
+
+MNI coordinates. The sphere is fitted to a template montage, so MNI coordinates are placed
+in it through the template (MNE's fsaverage, whose MRI coordinates are MNI coordinates): its
+fiducials define the head frame as MNE defines any (origin between the preauricular points,
+x towards the right one, y towards the nasion), which is also how the montage's head
+frame is defined.
 """
 
 from __future__ import annotations
 
-import copy
 import functools
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
-from .checks import InputError, check_int
-from .result import readonly
+from ..checks import InputError, check_int
+from ..result import readonly
+from ._model import Anatomy, HeadModel, apply_affine, finish_forward, sensors
 
 __all__ = [
     "MINDIST_MM",
     "MIN_POSITIONS",
-    "HeadModel",
+    "SHELL_DEPTH_MM",
+    "THALAMUS_MNI_MM",
+    "THALAMUS_RADIUS_MM",
+    "ANATOMICAL_SPACING_MM",
     "check_montage",
-    "grid_size",
     "check_size",
+    "grid_size",
     "make_head_model",
+    "make_sphere_head",
     "required_memory",
+    "template_mni_to_head",
 ]
 
 #: Margin (mm) between the source grid and the brain compartment's boundary (MNE's default).
 MINDIST_MM = 5.0
 #: Fewest grid positions a head model may have (the scenario may need more, see simulate).
 MIN_POSITIONS = 10
-_SFREQ_IRRELEVANT = 10000.0
-
-
-@dataclass(frozen=True, eq=False)
-class HeadModel:
-    """Sphere head model with a volume source grid and its EEG lead field.
-
-    Attributes
-    ----------
-    leadfield : ndarray, shape (n_channels, 3 * n_positions)
-        Free-orientation lead field in V/(A·m), average referenced (every column has zero
-        channel mean); columns are MNE's x, y, z of position 0, then position 1, ...
-    positions : ndarray, shape (n_positions, 3)
-        Source positions in metres, head coordinates.
-    info : mne.Info
-        EEG channels with the montage and an (inactive) average-reference projection.
-    sphere : mne.bem.ConductorModel
-        The sphere model (``make_sphere_model("auto", "auto", info)``).
-    src : mne.SourceSpaces
-        Discrete MNE source space holding ``positions``.
-    fwd : mne.Forward
-        MNE's free-orientation forward as computed, *not* average referenced.
-    montage : str
-        Name of the built-in montage.
-    seed : int or None
-        Grid offset seed (None: canonical grid).
-    spacing : float
-        Grid spacing in metres.
-    """
-
-    leadfield: np.ndarray = field(repr=False)
-    positions: np.ndarray = field(repr=False)
-    info: object = field(repr=False)
-    sphere: object = field(repr=False)
-    src: object = field(repr=False)
-    fwd: object = field(repr=False)
-    montage: str = "biosemi64"
-    seed: int | None = None
-    spacing: float = float("nan")
-
-    @property
-    def n_positions(self):
-        """int : Number of source positions."""
-        return self.positions.shape[0]
-
-    @property
-    def n_channels(self):
-        """int : Number of EEG channels."""
-        return self.leadfield.shape[0]
-
-    @property
-    def origin(self):
-        """ndarray, shape (3,) : Sphere centre in metres, head coordinates."""
-        return np.array(self.sphere["r0"], dtype=float)
-
-    @property
-    def brain_radius(self):
-        """float : Radius (m) of the brain compartment, the innermost sphere layer."""
-        return float(min(layer["rad"] for layer in self.sphere["layers"]))
+#: Spacing (mm) of the cortex + thalamus source spaces (MNE's default volume spacing).
+ANATOMICAL_SPACING_MM = 5.0
+#: Depths (mm) below the brain sphere's surface of the sphere's "cortex".
+SHELL_DEPTH_MM = (MINDIST_MM, 20.0)
+#: MNI centroids (mm) of the sample subject's left and right thalamus labels.
+THALAMUS_MNI_MM = ((-12.0, -19.0, 7.0), (12.0, -19.0, 7.0))
+#: Radius (mm) of a ball with the volume of the sample subject's left thalamus label.
+THALAMUS_RADIUS_MM = 12.4
 
 
 def make_head_model(n_positions=3000, montage="biosemi64", seed=None):
@@ -134,11 +104,38 @@ def make_head_model(n_positions=3000, montage="biosemi64", seed=None):
     check_montage(montage)
     if seed is not None:
         seed = check_int("seed", seed, minimum=0)
-    cached = _build_head(n_positions, montage, seed)
+    return _fresh(_build_head(n_positions, montage, seed))
+
+
+def make_sphere_head(source_space="volume", n_positions=3000, montage="biosemi64"):
+    """The sphere head with either source space (see the module docstring).
+
+    Parameters
+    ----------
+    source_space : {"volume", "anatomical"}
+        ``"volume"``: :func:`make_head_model` (``n_positions``); ``"anatomical"``: the
+        sphere's cortex and thalami on a 5 mm lattice (``n_positions`` is not used).
+    n_positions : int
+    montage : str
+
+    Returns
+    -------
+    head : HeadModel
+    """
+    if source_space == "volume":
+        return make_head_model(n_positions, montage)
+    if source_space != "anatomical":
+        raise InputError(f"source_space must be 'volume' or 'anatomical', got {source_space!r}")
+    return _fresh(_build_anatomical(check_montage(montage)))
+
+
+def _fresh(cached):
+    import copy
+
     return replace(
         cached,
         info=cached.info.copy(),
-        sphere=copy.deepcopy(cached.sphere),
+        conductor=copy.deepcopy(cached.conductor),
         src=cached.src.copy(),
         fwd=cached.fwd.copy(),
     )
@@ -186,7 +183,7 @@ def required_memory(n_positions=3000, montage="biosemi64"):
     >>> required_memory(3000) / 2**20  # MiB
     70.3...
     """
-    n_channels = len(_sensors(check_montage(montage))[0]["ch_names"])
+    n_channels = len(sensors(check_montage(montage))[0]["ch_names"])
     n_positions = check_int("n_positions", n_positions, minimum=MIN_POSITIONS)
     return 16 * 8 * n_channels * 3 * n_positions  # the grid holds n_positions within ~1 %
 
@@ -196,7 +193,7 @@ def check_size(n_positions, montage="biosemi64", *, extra=0, name="n_positions")
 
     Raises ``MemoryError`` naming ``name`` (a parameter or a command-line flag).
     """
-    from . import memory
+    from .. import memory
 
     memory.require(required_memory(n_positions, montage) + extra, f"{name} {n_positions}")
 
@@ -215,20 +212,6 @@ def _builtin_montages():
     return frozenset(mne.channels.get_builtin_montages())
 
 
-@functools.lru_cache(maxsize=8)
-def _sensors(montage):
-    """Info (with average-reference projection) and fitted sphere for a montage."""
-    import mne
-
-    digmontage = mne.channels.make_standard_montage(montage)
-    info = mne.create_info(digmontage.ch_names, _SFREQ_IRRELEVANT, "eeg")
-    info.set_montage(digmontage, verbose=False)
-    raw = mne.io.RawArray(np.zeros((len(info.ch_names), 1)), info, verbose=False)
-    raw.set_eeg_reference("average", projection=True, verbose=False)
-    sphere = mne.make_sphere_model("auto", "auto", raw.info, verbose=False)
-    return raw.info, sphere
-
-
 def _grid_cells(n_positions, offset):
     """Lattice points ``k + offset`` (in cells) of the ball holding ~n_positions of them.
 
@@ -245,36 +228,124 @@ def _grid_cells(n_positions, offset):
     return cells[np.linalg.norm(cells, axis=1) <= radius], radius
 
 
-@functools.lru_cache(maxsize=8)
-def _build_head(n_positions, montage, seed):
+def template_mni_to_head():
+    """Affine (4 x 4, m -> m) from MNI coordinates to the template's head frame.
+
+    MNE's fsaverage fiducials (``mne/data/fsaverage/fsaverage-fiducials.fif``, in fsaverage's
+    MRI coordinates, which are MNI coordinates) define the head frame as MNE does for any
+    subject (:func:`mne.transforms.get_ras_to_neuromag_trans`).
+
+    Examples
+    --------
+    >>> np.round(template_mni_to_head()[:3, 3] * 1e3)  # MNI origin in the head frame (mm)
+    array([-2., 31., 40.])
+    """
+    return _template_mni_to_head().copy()
+
+
+@functools.cache
+def _template_mni_to_head():
+    from pathlib import Path
+
     import mne
 
-    info, sphere = _sensors(montage)
+    path = Path(mne.__file__).parent / "data" / "fsaverage" / "fsaverage-fiducials.fif"
+    points, _ = mne.io.read_fiducials(path, verbose=False)
+    by_kind = {int(p["ident"]): np.asarray(p["r"], dtype=float) for p in points}
+    lpa, nasion, rpa = (by_kind[k] for k in (1, 2, 3))  # FIFFV_POINT_LPA, NASION, RPA
+    return mne.transforms.get_ras_to_neuromag_trans(nasion, lpa, rpa)
+
+
+def _anatomy(sphere):
+    centre = np.asarray(sphere["r0"], dtype=float)
+    return Anatomy(
+        mni_to_head=readonly(template_mni_to_head()),
+        mni_source="template: MNE's fsaverage fiducials (fsaverage MRI = MNI coordinates)",
+        grid_transform=readonly(np.eye(4)),
+        grid_frame="head",
+        labels={},
+        label_voxel_mm=float("nan"),
+        boundary=None,
+        centre=readonly(centre),
+        radius=float(min(layer["rad"] for layer in sphere["layers"])),
+    )
+
+
+def _sphere_head(positions, info, sphere, montage, seed, spacing, source_space):
+    import mne
+
+    normals = np.tile([0.0, 0.0, 1.0], (len(positions), 1))
+    src = mne.setup_volume_source_space(
+        pos=dict(rr=positions, nn=normals), sphere=sphere, mindist=0.0, verbose=False
+    )
+    if src[0]["nuse"] != len(positions):
+        raise RuntimeError("a grid position fell outside the sphere's brain compartment")
+    fwd = mne.make_forward_solution(
+        info, trans=None, src=src, bem=sphere, eeg=True, meg=False, verbose=False
+    )
+    fwd, leadfield = finish_forward(fwd, len(info.ch_names))
+    return HeadModel(
+        leadfield=leadfield,
+        positions=readonly(np.array(fwd["source_rr"], dtype=float)),
+        info=info,
+        conductor=sphere,
+        src=src,
+        fwd=fwd,
+        montage=montage,
+        seed=seed,
+        spacing=float(spacing),
+        conductor_kind="sphere",
+        source_space=source_space,
+        anatomy=_anatomy(sphere),
+    )
+
+
+@functools.lru_cache(maxsize=8)
+def _build_head(n_positions, montage, seed):
+    info, sphere = sensors(montage)
     origin = np.asarray(sphere["r0"], dtype=float)
     brain_radius = min(layer["rad"] for layer in sphere["layers"])
     ball = brain_radius - MINDIST_MM * 1e-3
     cells, radius = _grid_cells(n_positions, _offset(seed))
     spacing = ball / radius
     positions = origin + spacing * cells
-    normals = np.tile([0.0, 0.0, 1.0], (len(positions), 1))
-    src = mne.setup_volume_source_space(
-        pos=dict(rr=positions, nn=normals), sphere=sphere, verbose=False
-    )
-    fwd = mne.make_forward_solution(
-        info, trans=None, src=src, bem=sphere, eeg=True, meg=False, verbose=False
-    )
-    fwd = mne.convert_forward_solution(fwd, surf_ori=False, force_fixed=False, verbose=False)
-    gain = fwd["sol"]["data"]
-    if gain.shape != (len(info.ch_names), 3 * len(positions)) or not np.isfinite(gain).all():
-        raise RuntimeError("MNE returned an unexpected or non-finite forward solution")
-    return HeadModel(
-        leadfield=readonly(gain - gain.mean(axis=0, keepdims=True)),
-        positions=readonly(np.array(fwd["source_rr"], dtype=float)),
-        info=info,
-        sphere=sphere,
-        src=src,
-        fwd=fwd,
-        montage=montage,
-        seed=seed,
-        spacing=float(spacing),
+    return _sphere_head(positions, info, sphere, montage, seed, spacing, "volume")
+
+
+def anatomical_positions(sphere, floor):
+    """The sphere's cortex + thalamus positions (m, head coordinates), cortex first.
+
+    Parameters
+    ----------
+    sphere : mne.bem.ConductorModel
+    floor : float
+        Height (m, head coordinates) below which the cortex has no positions.
+
+    Returns
+    -------
+    positions : ndarray, shape (n, 3)
+    """
+    origin = np.asarray(sphere["r0"], dtype=float)
+    brain = min(layer["rad"] for layer in sphere["layers"])
+    spacing = ANATOMICAL_SPACING_MM * 1e-3
+    extent = int(np.ceil(brain / spacing)) + 1
+    k = np.arange(-extent, extent) + 0.5
+    cells = np.stack(np.meshgrid(k, k, k, indexing="ij"), axis=-1).reshape(-1, 3)
+    points = origin + spacing * cells
+    depth = brain - np.linalg.norm(points - origin, axis=1)
+    shallow, deep = (d * 1e-3 for d in SHELL_DEPTH_MM)
+    cortex = (depth >= shallow - 1e-12) & (depth <= deep + 1e-12) & (points[:, 2] >= floor)
+    centres = apply_affine(template_mni_to_head(), np.array(THALAMUS_MNI_MM) * 1e-3)
+    distance = np.linalg.norm(points[:, None] - centres[None], axis=2).min(axis=1)
+    thalamus = (distance <= THALAMUS_RADIUS_MM * 1e-3) & ~cortex
+    return np.concatenate([points[cortex], points[thalamus]])
+
+
+@functools.lru_cache(maxsize=4)
+def _build_anatomical(montage):
+    info, sphere = sensors(montage)
+    floor = 0.0  # the plane of the fiducials: z = 0 in head coordinates
+    positions = anatomical_positions(sphere, floor)
+    return _sphere_head(
+        positions, info, sphere, montage, None, ANATOMICAL_SPACING_MM * 1e-3, "anatomical"
     )
