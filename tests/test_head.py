@@ -143,11 +143,12 @@ def test_sphere_cortex_and_thalamus_follow_their_definition():
     cortex = ~in_thalamus
     assert (depth[cortex] >= shallow - 1e-9).all() and (depth[cortex] <= deep + 1e-9).all()
     assert (head.positions[cortex, 2] >= -1e-12).all()  # at or above the fiducial plane
-    assert 100 < in_thalamus.sum() < 200  # two balls of 8 cm³ on a 5 mm lattice: ~64 each
-    # a subset of a regular 5 mm lattice: the projections draw it
+    assert 50 < in_thalamus.sum() < 110  # two balls of 8 cm³ on a 6 mm lattice: ~37 each
+    assert 3000 < head.n_positions < 4500  # about the sample subject's 3550
+    # a subset of a regular 6 mm lattice: the projections draw it
     steps = (head.positions - head.positions.min(axis=0)) / head.spacing
     np.testing.assert_allclose(steps, np.rint(steps), atol=1e-6)
-    assert head.spacing == pytest.approx(0.005)
+    assert head.spacing == pytest.approx(heads.SPHERE_ANATOMICAL_SPACING_MM * 1e-3)
 
 
 def test_make_head_picks_the_cell():

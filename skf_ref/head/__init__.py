@@ -18,13 +18,14 @@ Whether a head can hold the scenario is checked where the two meet, in
 """
 
 from ._bem import LABELS, VOLUME_SPACING_MM, make_realistic_head, subject_mni_to_head
-from ._data import CACHE_ENV, TESTING_FILES, cache_dir, find_testing_data
+from ._data import CACHE_ENV, TESTING_FILES, cache_dir, find_testing_data, input_digest
 from ._model import CONDUCTORS, SOURCE_SPACES, Anatomy, HeadModel
 from ._sphere import (
     ANATOMICAL_SPACING_MM,
     MIN_POSITIONS,
     MINDIST_MM,
     SHELL_DEPTH_MM,
+    SPHERE_ANATOMICAL_SPACING_MM,
     THALAMUS_MNI_MM,
     THALAMUS_RADIUS_MM,
     check_montage,
@@ -45,6 +46,7 @@ __all__ = [
     "MIN_POSITIONS",
     "SHELL_DEPTH_MM",
     "SOURCE_SPACES",
+    "SPHERE_ANATOMICAL_SPACING_MM",
     "TESTING_FILES",
     "THALAMUS_MNI_MM",
     "THALAMUS_RADIUS_MM",
@@ -56,6 +58,7 @@ __all__ = [
     "check_size",
     "find_testing_data",
     "grid_size",
+    "input_digest",
     "make_head",
     "make_head_model",
     "make_realistic_head",

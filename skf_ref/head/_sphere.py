@@ -17,13 +17,15 @@ of a cubic lattice; about 420 positions for ``biosemi64``) always ensures.
 
 Cortex and thalamus in a sphere. The sphere has no anatomy; its nearest equivalent of the
 realistic head's cortex + thalamus source space (:data:`SHELL_DEPTH_MM`,
-:data:`THALAMUS_RADIUS_MM`, :data:`THALAMUS_MNI_MM`) is, on a 5 mm lattice centred like the
-volume grid: the *cortex*, every position 5-20 mm below the brain sphere's surface at or above
-the plane of the montage's fiducials (the sample subject's 5 mm cortex positions lie 9-53 mm,
-median 28 mm, below its inner skull, and all above that plane; 20 mm takes in the depth of
-the scenario's superficial source, 17 mm, on the sulcal wall); and two *thalami*, balls of
-the volume of the sample subject's left thalamus label (7.9 cm³, radius 12.4 mm) around the
-MNI centroids of the sample subject's thalami, (-12, -19, 7) and (12, -19, 7) mm.
+:data:`THALAMUS_RADIUS_MM`, :data:`THALAMUS_MNI_MM`) is, on a 6 mm lattice centred like the
+volume grid (:data:`SPHERE_ANATOMICAL_SPACING_MM`: about as many positions as the sample
+subject's 5 mm cortex + thalamus): the *cortex*, every position 5-20 mm below the brain
+sphere's surface at or above the plane of the montage's fiducials (the sample subject's 5 mm
+cortex positions lie 9-53 mm, median 28 mm, below its inner skull, and all above that plane;
+20 mm takes in the depth of the scenario's superficial source, 17 mm, on the sulcal wall);
+and two *thalami*, balls of the volume of the sample subject's left thalamus label (7.9 cm³,
+radius 12.4 mm) around the MNI centroids of the sample subject's thalami, (-12, -19, 7) and
+(12, -19, 7) mm.
 
 MNI coordinates. The sphere is fitted to a template montage, so MNI coordinates are placed
 in it through the template (MNE's fsaverage, whose MRI coordinates are MNI coordinates): its
@@ -50,6 +52,7 @@ __all__ = [
     "THALAMUS_MNI_MM",
     "THALAMUS_RADIUS_MM",
     "ANATOMICAL_SPACING_MM",
+    "SPHERE_ANATOMICAL_SPACING_MM",
     "check_montage",
     "check_size",
     "grid_size",
@@ -63,8 +66,11 @@ __all__ = [
 MINDIST_MM = 5.0
 #: Fewest grid positions a head model may have (the scenario may need more, see simulate).
 MIN_POSITIONS = 10
-#: Spacing (mm) of the cortex + thalamus source spaces (MNE's default volume spacing).
+#: Spacing (mm) of the BEM head's cortex + thalamus source space (MNE's default).
 ANATOMICAL_SPACING_MM = 5.0
+#: Spacing (mm) of the sphere's cortex + thalamus: its smooth 15 mm band then holds about as
+#: many positions as the sample subject's folded cortex at 5 mm (3717 against 3550).
+SPHERE_ANATOMICAL_SPACING_MM = 6.0
 #: Depths (mm) below the brain sphere's surface of the sphere's "cortex".
 SHELL_DEPTH_MM = (MINDIST_MM, 20.0)
 #: MNI centroids (mm) of the sample subject's left and right thalamus labels.
@@ -114,7 +120,7 @@ def make_sphere_head(source_space="volume", n_positions=3000, montage="biosemi64
     ----------
     source_space : {"volume", "anatomical"}
         ``"volume"``: :func:`make_head_model` (``n_positions``); ``"anatomical"``: the
-        sphere's cortex and thalami on a 5 mm lattice (``n_positions`` is not used).
+        sphere's cortex and thalami on a 6 mm lattice (``n_positions`` is not used).
     n_positions : int
     montage : str
 
@@ -327,7 +333,7 @@ def anatomical_positions(sphere, floor):
     """
     origin = np.asarray(sphere["r0"], dtype=float)
     brain = min(layer["rad"] for layer in sphere["layers"])
-    spacing = ANATOMICAL_SPACING_MM * 1e-3
+    spacing = SPHERE_ANATOMICAL_SPACING_MM * 1e-3
     extent = int(np.ceil(brain / spacing)) + 1
     k = np.arange(-extent, extent) + 0.5
     cells = np.stack(np.meshgrid(k, k, k, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -347,5 +353,5 @@ def _build_anatomical(montage):
     floor = 0.0  # the plane of the fiducials: z = 0 in head coordinates
     positions = anatomical_positions(sphere, floor)
     return _sphere_head(
-        positions, info, sphere, montage, None, ANATOMICAL_SPACING_MM * 1e-3, "anatomical"
+        positions, info, sphere, montage, None, SPHERE_ANATOMICAL_SPACING_MM * 1e-3, "anatomical"
     )
