@@ -71,7 +71,8 @@ def _sources_label(sources):
 
 
 def _region_values(rec, head, truth):
-    """Raw region maxima (standardized amplitude) at the two peaks, for the controls."""
+    """Raw region maxima (standardized amplitude) at the two peaks, for the controls, and
+    the height (m, head coordinates) of the global maximum at each peak."""
     from ..regions import region_time_course
 
     amplitude = rec.amplitude(3)
@@ -84,6 +85,8 @@ def _region_values(rec, head, truth):
         "superficial_max_at_superficial_peak": float(sup[i_sup]),
         "max_at_deep_peak": float(amplitude[:, i_deep].max()),
         "max_at_superficial_peak": float(amplitude[:, i_sup].max()),
+        "max_height_at_deep_peak": float(head.positions[amplitude[:, i_deep].argmax(), 2]),
+        "max_height_at_superficial_peak": float(head.positions[amplitude[:, i_sup].argmax(), 2]),
     }
 
 

@@ -190,7 +190,7 @@ def output_folder(settings, out=None):
 # --------------------------------------------------------------------------- main
 
 
-def _judge_cell(result, settings, wanted, out):
+def _judge_cell(result, settings, wanted, out, n_jobs=1):
     """Verdicts, figures, diagnostics (and the sphere grid's sensitivity) of one cell."""
     from .rules_v2 import evaluate_v2
 
@@ -201,7 +201,7 @@ def _judge_cell(result, settings, wanted, out):
     result.figures = make_figures(folder, runs, settings, result.fine)
     result.diagnostics = diagnostics(runs, settings.seeds)
     if result.cell.name == "sphere-volume":
-        result.sensitivity = run_sensitivity(result.head, settings.seeds, folder)
+        result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, n_jobs)
     with atomic_path(folder / "summary.csv") as tmp:
         summary_table(result.paper, result.fine).to_csv(
             tmp, index=False, float_format="%.6g", lineterminator="\n"
@@ -293,7 +293,7 @@ def main(argv=None):
     common = dict(testing_data=testing, cache_dir=args.cache_dir)
     for cell in settings.cells:
         result = run_cell_sweeps(cell, settings, out, args.jobs, progress, **common)
-        _judge_cell(result, settings, wanted, out)
+        _judge_cell(result, settings, wanted, out, args.jobs)
         results[cell.name] = result
     best = best_cell(results)
     variants = []

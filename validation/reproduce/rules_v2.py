@@ -111,7 +111,7 @@ def _judged(mean, se):
     return 1 if mean > margin else -1 if mean < -margin else 0
 
 
-_WORDS = {1: "yes", 0: "tie within one SE: no", -1: "no"}
+_WORDS = {1: "", 0: " (a tie within one SE)", -1: ""}
 
 
 def rule_v2_f1(table):
@@ -134,7 +134,7 @@ def rule_v2_f1(table):
         ("best cell is (EP 0, PM 0)", _best(stats) == [(0.0, 0.0)]),
         (
             f"EP cost - PM cost = score(EP 20, PM 0) - score(EP 0, PM 20) = "
-            f"{_pm(mean, se)} mm (paired over seeds) > one SE: {_WORDS[judged]}",
+            f"{_pm(mean, se)} mm (paired over seeds) > one SE{_WORDS[judged]}",
             judged == 1,
         ),
     )
@@ -180,7 +180,7 @@ def rule_v2_f2(table):
         ("best cell is (EP 0, PM 0)", _best(stats) == [(0.0, 0.0)]),
         (
             f"relative spread (max - min) / mean {spread_20:.2f} at 20 dB < {spread_10:.2f} at "
-            f"10 dB by more than one jackknife SE ({se:.2f}): {_WORDS[judged]}",
+            f"10 dB by more than one jackknife SE ({se:.2f}){_WORDS[judged]}",
             judged == 1,
         ),
     )
