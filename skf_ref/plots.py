@@ -183,9 +183,22 @@ def plot_exponent_comparison(reconstructions, head, truth, title=None, path=None
     return _panel_grid(panels, head, truth, 1, len(panels), title, path)
 
 
+def _grid_frame(head):
+    """Affine from head coordinates to the frame the grid is axis aligned in, and its name."""
+    anatomy = getattr(head, "anatomy", None)
+    if anatomy is None:
+        return np.eye(4), "head"
+    return np.asarray(anatomy.grid_transform, dtype=float), anatomy.grid_frame
+
+
+def _in_frame(affine, points):
+    points = np.asarray(points, dtype=float)
+    return points @ affine[:3, :3].T + affine[:3, 3]
+
+
 def _lattice(head):
     """Integer grid indices (n_positions, 3) of the positions and the spacing (m)."""
-    positions = np.asarray(head.positions, dtype=float)
+    positions = _in_frame(_grid_frame(head)[0], head.positions)
     spacing = getattr(head, "spacing", None)
     if spacing is None or not np.isfinite(spacing):
         steps = np.concatenate([np.diff(np.unique(np.round(col, 9))) for col in positions.T])
@@ -216,7 +229,9 @@ def plot_average_reconstruction(
 
     One row per time, columns sagittal (y-z), coronal (x-z) and axial (x-y) maximum-
     intensity projections (MIP) in MNE's head coordinates (mm; x towards the right ear,
-    y towards the nasion, z up). Colours span ``max - dynamic_range_db``
+    y towards the nasion, z up), or, for a grid built in a subject's MRI coordinates
+    (``head.anatomy.grid_frame == "MRI"``), in those (x right, y anterior, z superior).
+    Colours span ``max - dynamic_range_db``
     to the maximum at that time; grid positions below the range are light grey, outside
     the grid white. True positions: deep green, superficial red circles. Pass an averaged
     amplitude (e.g. over noise realizations) to plot an average reconstruction.
@@ -262,6 +277,10 @@ def plot_average_reconstruction(
         )
     dynamic_range_db = check_real("dynamic_range_db", dynamic_range_db, positive=True)
     index, spacing = _lattice(head)
+    frame, frame_name = _grid_frame(head)
+    positions, true_positions = _in_frame(frame, positions), _in_frame(frame, truth.positions)
+    tag = "" if frame_name == "head" else f", {frame_name}"
+    labels = [label.replace(" (mm)", f" (mm{tag})") for label in _AXIS_LABELS]
     corner_mm = positions.min(axis=0) * 1e3
     cmap = mpl.colormaps["Blues"].resampled(256)
     cmap = mpl.colors.ListedColormap(cmap(np.linspace(0.3, 1.0, 256)))
@@ -292,7 +311,7 @@ def plot_average_reconstruction(
                 vmax=0.0,
                 interpolation="nearest",
             )
-            for pos, colour, label in zip(truth.positions, _COLOURS, _LABELS, strict=True):
+            for pos, colour, label in zip(true_positions, _COLOURS, _LABELS, strict=True):
                 ax.plot(
                     pos[horiz] * 1e3,
                     pos[vert] * 1e3,
@@ -304,8 +323,8 @@ def plot_average_reconstruction(
                     label=f"{label} (true)",
                 )
             ax.set_title(f"{name} MIP, {times[k] * 1e3:g} ms")
-            ax.set_xlabel(_AXIS_LABELS[horiz])
-            ax.set_ylabel(_AXIS_LABELS[vert])
+            ax.set_xlabel(labels[horiz])
+            ax.set_ylabel(labels[vert])
     fig.colorbar(image, ax=axes, label="dB re. maximum at that time", extend="min", shrink=0.8)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize="small")

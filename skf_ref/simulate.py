@@ -4,11 +4,12 @@ Three steps, each a public function returning a frozen dataclass:
 
 - :func:`make_head_model` -> :class:`HeadModel`: MNE's sphere model fitted to a montage, a
   regular cubic grid of source positions in the brain compartment and its free-orientation,
-  average-referenced lead field.
+  average-referenced lead field (other heads: :mod:`skf_ref.head`).
 - :func:`p20n20_scenario` -> :class:`Scenario`: two dipoles (deep thalamic, superficial
-  cortical) with overlapping Hann pulses.
+  cortical) at MNI coordinates, with overlapping pulses.
 - :func:`simulate` -> :class:`Simulation`: data from the exact dipoles' own forward field
-  (not grid columns) plus white Gaussian noise at a peak SNR.
+  (not grid columns) plus white Gaussian noise at a peak SNR; optionally from one source
+  only, with the noise of both (the controls of the reproduction study).
 
 The head model lives in :mod:`skf_ref.head`. ``make_head_model`` and ``HeadModel`` can
 still be reached from here, where the first release put them.
@@ -20,14 +21,46 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .checks import InputError, check_db, check_instance, check_int, check_real, check_vector
+from .checks import (
+    InputError,
+    check_choice,
+    check_db,
+    check_instance,
+    check_int,
+    check_real,
+    check_vector,
+)
 from .head import HeadModel, make_head_model  # noqa: F401  (make_head_model: issue-4 name)
 from .regions import REGION_RADIUS_MM, region_mask
 from .result import readonly
 
-__all__ = ["Scenario", "Simulation", "Truth", "p20n20_scenario", "simulate"]
+__all__ = [
+    "DEEP_MNI_MM",
+    "FORWARDS",
+    "SOURCES",
+    "SUPERFICIAL_MNI_MM",
+    "WINDOWS",
+    "Scenario",
+    "Simulation",
+    "Truth",
+    "p20n20_scenario",
+    "simulate",
+]
 
-_PULSE_EDGE_TOL = 1e-9  # relative phase treated as the (zero) edge of a Hann pulse
+_PULSE_EDGE_TOL = 1e-9  # relative phase treated as the (zero) edge of a pulse
+#: The deep source: left thalamus, ventral posterolateral nucleus (VPL), MNI mm. A round-number
+#: estimate of the nucleus' centre in stereotactic atlases: 16 mm left of the midline, 22 mm
+#: behind and 4 mm above the anterior commissure.
+DEEP_MNI_MM = (-16.0, -22.0, 4.0)
+#: The superficial source: posterior wall of the left central sulcus (area 3b, hand
+#: representation, the N20 generator), MNI mm.
+SUPERFICIAL_MNI_MM = (-38.0, -27.0, 54.0)
+#: Anatomical labels the two sources must lie in, where the head has labels.
+_LABELS = ("Left-Thalamus", "Left-Cerebral-Cortex")
+#: Pulse windows: the Hann window, and the 4-term Blackman-Harris window (the reference
+#: toolbox's) with its coefficients.
+WINDOWS = ("hann", "blackman-harris")
+_BLACKMAN_HARRIS = (0.35875, 0.48829, 0.14128, 0.01168)
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,6 +81,10 @@ class Truth:
         Time of each waveform's peak in seconds.
     times : ndarray, shape (n_times,)
         Sample times in seconds.
+    moved_mm : tuple of float
+        How far each source was moved from its mapped MNI point into its anatomical label
+        (zeros where it lay in it, or where the head has no labels or the scenario gave
+        head coordinates).
     """
 
     names: tuple
@@ -56,6 +93,7 @@ class Truth:
     waveforms: np.ndarray = field(repr=False)
     peak_times: np.ndarray
     times: np.ndarray = field(repr=False)
+    moved_mm: tuple = (0.0, 0.0)
 
     @property
     def peak_indices(self):
@@ -65,16 +103,17 @@ class Truth:
 
 @dataclass(frozen=True, eq=False)
 class Scenario:
-    """Two dipoles with Hann-pulse waveforms, head independent (index 0 deep, 1 superficial).
+    """Two dipoles with pulse waveforms, head independent (index 0 deep, 1 superficial).
 
     Attributes
     ----------
     names : tuple of str
         ``("deep", "superficial")``.
     positions : ndarray, shape (2, 3)
-        Dipole positions in metres, head coordinates.
+        Dipole positions in metres, in ``frame``.
     orientations : ndarray, shape (2, 3)
-        Orientations as given (not normalized, not made tangential); see :meth:`dipoles`.
+        Orientations as given in ``frame`` (not normalized, not made tangential); see
+        :meth:`dipoles`.
     tangential : tuple of bool
         Whether :meth:`dipoles` removes a source's radial component: ``(False, True)``.
     times : ndarray, shape (n_times,)
@@ -85,6 +124,13 @@ class Scenario:
         Pulse centres in seconds.
     sfreq : float
         Sampling frequency in Hz.
+    frame : str
+        ``"mni"``: positions and orientations are MNI coordinates, placed in a head by its
+        anatomy; ``"head"``: head coordinates of any head.
+    labels : tuple of str
+        Anatomical label each source must lie in (used where the head has labels).
+    window : str
+        Pulse window, one of :data:`WINDOWS`.
     """
 
     names: tuple
@@ -95,74 +141,123 @@ class Scenario:
     waveforms: np.ndarray = field(repr=False)
     peak_times: np.ndarray
     sfreq: float
+    frame: str = "mni"
+    labels: tuple = _LABELS
+    window: str = "hann"
+
+    def _placed(self, head):
+        """Head positions and orientations of the sources, and how far each was moved."""
+        if self.frame == "head":
+            return np.array(self.positions), np.array(self.orientations), (0.0, 0.0)
+        anatomy = getattr(head, "anatomy", None)
+        if anatomy is None:
+            raise InputError(
+                "scenario: MNI positions need a head with an anatomy (skf_ref.head); give "
+                "head coordinates with frame='head' for other heads"
+            )
+        placed = [
+            anatomy.place(pos, label)
+            for pos, label in zip(self.positions, self.labels, strict=True)
+        ]
+        linear = np.asarray(anatomy.mni_to_head)[:3, :3]
+        orientations = np.asarray(self.orientations) @ linear.T  # directions: linear part
+        positions = np.array([pos for pos, _ in placed])
+        return positions, orientations, tuple(moved for _, moved in placed)
 
     def dipoles(self, head):
-        """Exact sources in `head`: unit orientations, the tangential ones made tangential.
+        """Exact sources in `head`: placed, unit orientations, the tangential ones tangential.
 
-        The superficial orientation loses its radial component relative to the sphere
-        centre ``head.origin`` (then is normalized); this needs the head, hence lives here.
+        MNI positions are mapped into the head by ``head.anatomy`` (and moved into their
+        labels where the head has labels; :meth:`skf_ref.head.Anatomy.place`). A tangential
+        orientation loses its component along ``head.radial(position)`` (the outward normal
+        of the brain compartment nearest the source: the direction from the sphere centre,
+        or the inner skull's normal), then every orientation is normalized.
 
         Parameters
         ----------
         head : HeadModel
-            Anything with ``origin`` (ndarray, shape (3,), metres).
+            Or, for a scenario in head coordinates, anything with ``origin`` (ndarray,
+            shape (3,), metres), the centre tangential is taken about.
 
         Returns
         -------
         truth : Truth
         """
-        origin = np.asarray(head.origin, dtype=float)
+        positions, given, moved = self._placed(head)
         orientations = []
         for name, pos, ori, tangential in zip(
-            self.names, self.positions, self.orientations, self.tangential, strict=True
+            self.names, positions, given, self.tangential, strict=True
         ):
             if tangential:
-                radial = pos - origin
-                if np.linalg.norm(radial) < 1e-9:
-                    raise InputError(f"the {name} source sits at the sphere centre: no tangent")
-                radial = radial / np.linalg.norm(radial)
+                radial = _radial(head, pos, name)
                 ori = ori - (ori @ radial) * radial
-                if np.linalg.norm(ori) < 1e-9 * np.linalg.norm(self.orientations):
+                if np.linalg.norm(ori) < 1e-9 * np.linalg.norm(given):
                     raise InputError(f"the {name} orientation is radial: no tangential part")
             orientations.append(ori / np.linalg.norm(ori))
         peak_times = np.array(self.peak_times, dtype=float)
         return Truth(
             names=self.names,
-            positions=self.positions,
+            positions=readonly(positions),
             orientations=readonly(orientations),
             waveforms=self.waveforms,
             peak_times=readonly(peak_times),
             times=self.times,
+            moved_mm=moved,
         )
 
 
-def _hann(times, onset, width, peak):
-    """Hann pulse ``peak * sin(pi (t - onset) / width) ** 2`` on (onset, onset + width)."""
+def _radial(head, position, name):
+    if hasattr(head, "radial"):
+        return head.radial(position)
+    radial = position - np.asarray(head.origin, dtype=float)
+    if np.linalg.norm(radial) < 1e-9:
+        raise InputError(f"the {name} source sits at the sphere centre: no tangent")
+    return radial / np.linalg.norm(radial)
+
+
+def _pulse(times, onset, width, peak, window="hann"):
+    """A window pulse of support (onset, onset + width) peaking at ``peak`` in its centre.
+
+    Hann: ``peak * sin(pi x) ** 2``; Blackman-Harris: ``peak * sum_k (-1)**k a_k cos(2 pi k
+    x)`` with the 4-term coefficients (1 at the centre, 6e-5 at the edges, set to 0 outside);
+    ``x = (t - onset) / width``.
+    """
     phase = (times - onset) / width
     inside = (phase > _PULSE_EDGE_TOL) & (phase < 1.0 - _PULSE_EDGE_TOL)
-    return np.where(inside, peak * np.sin(np.pi * phase) ** 2, 0.0)
+    if window == "hann":
+        shape = np.sin(np.pi * phase) ** 2
+    else:
+        shape = sum(
+            (-1) ** k * a * np.cos(2 * np.pi * k * phase) for k, a in enumerate(_BLACKMAN_HARRIS)
+        )
+    return np.where(inside, peak * shape, 0.0)
 
 
 def p20n20_scenario(
     *,
-    deep_position_mm=(-12, -32, 50),
+    deep_position_mm=DEEP_MNI_MM,
     deep_orientation=(0.2, 0.196, -0.981),
-    superficial_position_mm=(-33, -37, 80),
+    superficial_position_mm=SUPERFICIAL_MNI_MM,
     superficial_orientation=(0.2, 1, 0),
+    frame="mni",
     peak_amplitude_nam=10.0,
     pulse_ms=3.0,
     deep_onset_ms=0.0,
     superficial_onset_ms=1.0,
     sfreq=10000.0,
     duration_ms=4.0,
+    window="hann",
 ):
     """The paper's P20/N20 scenario: a thalamic and a cortical dipole, 2 ms apart.
 
-    Each waveform is a Hann pulse of `pulse_ms` support (zero at both ends) peaking at
-    `peak_amplitude_nam` in its centre: deep on [0, 3] ms (peak 1.5 ms), superficial on
-    [1, 4] ms (peak 2.5 ms) by default, sampled at `sfreq` over 0..`duration_ms` inclusive
-    (41 samples). Positions in mm, head coordinates; orientations are unit-normalized and the
-    superficial one made tangential by :meth:`Scenario.dipoles`, given a head.
+    Each waveform is a pulse of `pulse_ms` support (zero at both ends; `window` "hann" or
+    "blackman-harris") peaking at `peak_amplitude_nam` in its centre: deep on [0, 3] ms (peak
+    1.5 ms), superficial on [1, 4] ms (peak 2.5 ms) by default, sampled at `sfreq` over
+    0..`duration_ms` inclusive (41 samples). Positions in mm and orientations, both in
+    `frame`: ``"mni"`` (the default: :data:`DEEP_MNI_MM` in the left thalamus' VPL nucleus,
+    :data:`SUPERFICIAL_MNI_MM` on the posterior wall of the left central sulcus) or
+    ``"head"`` (head coordinates). :meth:`Scenario.dipoles` places them in a head,
+    normalizes the orientations and makes the superficial one tangential.
 
     Returns
     -------
@@ -174,6 +269,8 @@ def p20n20_scenario(
     >>> sc.times.shape, sc.peak_times * 1e3
     ((41,), array([1.5, 2.5]))
     """
+    frame = check_choice("frame", frame, ("mni", "head"))
+    window = check_choice("window", window, WINDOWS)
     positions = [check_vector("deep_position_mm", deep_position_mm, 3)]
     positions.append(check_vector("superficial_position_mm", superficial_position_mm, 3))
     orientations = []
@@ -206,7 +303,7 @@ def p20n20_scenario(
             )
     n_times = int(np.floor(duration * sfreq + 1e-6)) + 1
     times = np.arange(n_times) / sfreq
-    waveforms = [_hann(times, onset, width, peak) for onset in onsets]
+    waveforms = [_pulse(times, onset, width, peak, window) for onset in onsets]
     return Scenario(
         names=("deep", "superficial"),
         positions=readonly(np.array(positions) * 1e-3),
@@ -216,6 +313,8 @@ def p20n20_scenario(
         waveforms=readonly(waveforms),
         peak_times=readonly([onset + width / 2 for onset in onsets]),
         sfreq=sfreq,
+        frame=frame,
+        window=window,
     )
 
 
@@ -229,15 +328,18 @@ class Simulation:
         Noisy data in V: the average-referenced ``Y_clean`` plus white noise (the noise
         is not re-referenced; it is what ``R = sigma**2 I`` assumes).
     Y_clean : ndarray, shape (n_channels, n_times)
-        Noise-free data in V: the exact dipoles' forward field times their waveforms.
+        Noise-free data in V: the active dipoles' forward field times their waveforms.
     sigma : float
-        Noise standard deviation in V, ``max|Y_clean| * 10 ** (-snr_db / 20)``.
+        Noise standard deviation in V, ``max|Y_clean| * 10 ** (-snr_db / 20)`` of the data
+        with both sources.
     times : ndarray, shape (n_times,)
         Sample times in seconds.
     snr_db : float
         Peak signal-to-noise ratio in dB.
     truth : Truth
-        The exact sources.
+        The exact sources (both, whichever are active).
+    sources : tuple of str
+        The sources active in the data.
     """
 
     Y: np.ndarray = field(repr=False)
@@ -246,37 +348,23 @@ class Simulation:
     times: np.ndarray = field(repr=False)
     snr_db: float
     truth: Truth = field(repr=False)
+    sources: tuple = ("deep", "superficial")
 
 
-def _dipole_gain(head, truth):
-    """Average-referenced fixed-orientation gain of the exact dipoles, (n_channels, 2).
+SOURCES = ("deep", "superficial")
+FORWARDS = ("exact", "grid")
 
-    The same MNE forward computation as the grid's lead field (in float64), at the dipoles'
-    own positions, projected on their orientations.
-    """
-    import mne
 
-    n = len(truth.names)
-    src = mne.setup_volume_source_space(
-        pos=dict(rr=truth.positions, nn=np.tile([0.0, 0.0, 1.0], (n, 1))),
-        sphere=head.sphere,
-        mindist=0.0,
-        verbose=False,
+def _grid_gain(head, truth):
+    """Average-referenced gain of the grid columns at each source's nearest position."""
+    nearest = np.linalg.norm(head.positions[:, None] - truth.positions[None], axis=2)
+    columns = [head.leadfield[:, 3 * p : 3 * p + 3] for p in nearest.argmin(axis=0)]
+    return np.stack(
+        [cols @ ori for cols, ori in zip(columns, truth.orientations, strict=True)], axis=1
     )
-    if src[0]["nuse"] != n:
-        raise InputError("scenario: a source lies outside the brain compartment")
-    fwd = mne.make_forward_solution(
-        head.info, trans=None, src=src, bem=head.sphere, eeg=True, meg=False, verbose=False
-    )
-    fwd = mne.convert_forward_solution(fwd, surf_ori=False, force_fixed=False, verbose=False)
-    free = np.asarray(fwd["sol"]["data"], dtype=float).reshape(head.n_channels, n, 3)
-    gain = np.einsum("cnk,nk->cn", free, truth.orientations)
-    if not np.isfinite(gain).all():
-        raise InputError("the sources' forward field is not finite (a source at the centre?)")
-    return gain - gain.mean(axis=0, keepdims=True)
 
 
-def simulate(head, scenario, snr_db, seed):
+def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact"):
     """Simulate the scenario's EEG in the head with white Gaussian noise.
 
     ``Y_clean = G @ waveforms`` with ``G`` the average-referenced forward field of the exact
@@ -288,9 +376,17 @@ def simulate(head, scenario, snr_db, seed):
     head : HeadModel
     scenario : Scenario
     snr_db : float
-        Peak SNR in dB, within +-300: ``sigma = max|Y_clean| * 10 ** (-snr_db / 20)``.
+        Peak SNR in dB, within +-300: ``sigma = max|Y_clean| * 10 ** (-snr_db / 20)`` of the
+        data with both sources.
     seed : int or numpy.random.Generator
         Noise seed for ``numpy.random.default_rng``; required, so runs are reproducible.
+    sources : sequence of str
+        The sources active in the data, of ``("deep", "superficial")``. With one, the data
+        hold that source's field and the noise (same ``sigma``, same draws) of the data with
+        both: a control that shows what the other source contributes. ``truth`` keeps both.
+    forward : {"exact", "grid"}
+        ``"grid"``: the field of each source is its nearest grid position's lead-field
+        columns projected on its orientation (an "inverse crime", for comparison only).
 
     Returns
     -------
@@ -307,21 +403,31 @@ def simulate(head, scenario, snr_db, seed):
     snr_db = check_db("snr_db", snr_db)
     if not isinstance(seed, np.random.Generator):
         seed = check_int("seed", seed, minimum=0)
+    if isinstance(sources, str) or not all(name in SOURCES for name in sources) or not sources:
+        raise InputError(f"sources must be a non-empty subset of {list(SOURCES)}, got {sources!r}")
+    forward = check_choice("forward", forward, FORWARDS)
     truth = scenario.dipoles(head)
     for name, pos in zip(truth.names, truth.positions, strict=True):
-        depth = np.linalg.norm(pos - head.origin)
-        if depth >= head.brain_radius:
-            raise InputError(
-                f"scenario: the {name} source lies {depth * 1e3:.1f} mm from the sphere centre, "
-                f"outside the brain compartment (radius {head.brain_radius * 1e3:.1f} mm)"
-            )
+        if head.anatomy.boundary is None:
+            depth = np.linalg.norm(pos - head.origin)
+            if depth >= head.brain_radius:
+                raise InputError(
+                    f"scenario: the {name} source lies {depth * 1e3:.1f} mm from the sphere "
+                    f"centre, outside the brain compartment (radius "
+                    f"{head.brain_radius * 1e3:.1f} mm)"
+                )
         if not region_mask(head.positions, pos).any():
             raise InputError(
                 f"head: no grid position within {REGION_RADIUS_MM:g} mm of the {name} source; "
                 f"use a larger n_positions"
             )
-    Y_clean = _dipole_gain(head, truth) @ truth.waveforms
-    sigma = float(np.abs(Y_clean).max() * 10.0 ** (-snr_db / 20.0))
+    if forward == "exact":
+        gain = head.dipole_gain(truth.positions, truth.orientations)
+    else:
+        gain = _grid_gain(head, truth)
+    sigma = float(np.abs(gain @ truth.waveforms).max() * 10.0 ** (-snr_db / 20.0))
+    active = np.array([name in sources for name in truth.names], dtype=float)
+    Y_clean = gain @ (active[:, None] * truth.waveforms)
     noise = np.random.default_rng(seed).standard_normal(Y_clean.shape)
     return Simulation(
         Y=readonly(Y_clean + sigma * noise),
@@ -330,4 +436,5 @@ def simulate(head, scenario, snr_db, seed):
         times=truth.times,
         snr_db=snr_db,
         truth=truth,
+        sources=tuple(name for name in truth.names if name in sources),
     )

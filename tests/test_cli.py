@@ -15,7 +15,8 @@ import pytest
 import skf_ref
 from skf_ref.cli import main
 
-SMALL = ["--positions", "500", "--quiet"]  # a small head model: seconds, not a minute
+# a small sphere head model: seconds, not a minute (and never MNE's testing dataset)
+SMALL = ["--positions", "500", "--quiet", "--head", "sphere"]
 ENV = os.environ | {"PYTHONPATH": str(Path(__file__).resolve().parents[1])}
 
 
@@ -55,6 +56,7 @@ def test_demo_writes_figures_arrays_and_metrics(demo_dir, capsys):
     assert settings["positions_requested"] == 500
     assert settings["machine"]["versions"]["skf_ref"] == skf_ref.__version__
     assert settings["machine"]["blas"] and settings["seed"] == 0
+    assert settings["head_kind"] == "sphere" and settings["source_space"] == "volume"
     for name in ("snr_db", "pm_snr_db", "ep_snr_db", "exponent", "theta0", "q", "sigma"):
         assert float(arrays[name]) == settings[name], name
     assert str(arrays["smoother"]) == settings["smoother"] == "rts-standardized"
@@ -75,6 +77,17 @@ def test_demo_without_a_smoother_runs_the_filter_only(tmp_path, capsys):
         "time_courses_filtered.png",
     ]
     assert json.loads((tmp_path / "settings.json").read_text())["smoother"] is None
+
+
+def test_demo_says_which_head_it_used(tmp_path, monkeypatch, capsys):
+    import mne
+
+    monkeypatch.setattr(mne.datasets.testing, "data_path", lambda **kwargs: tmp_path / "none")
+    assert main(["demo", "--out", str(tmp_path), "--positions", "500", "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "head: sphere" in printed and "--mne-testing-data DIR" in printed
+    assert main(["demo", "--out", str(tmp_path), "--head", "realistic", "--quiet"]) == 2
+    assert "--head realistic needs MNE's testing dataset" in capsys.readouterr().err
 
 
 def test_bare_command_prints_help_and_version(capsys):
@@ -107,6 +120,8 @@ def test_every_option_shows_its_default(command, capsys):
         (["demo", "--positions", "2.5"], "argument --positions: must be an integer"),
         (["demo", "--seed", "-1"], "argument --seed: must be >= 0, got -1"),
         (["demo", "--smoother", "kalman"], "invalid choice"),
+        (["demo", "--mne-testing-data", "."], "--mne-testing-data: testing_data must be MNE's"),
+        (["demo", "--head", "sphere", "--mne-testing-data", "."], "not used with --head sphere"),
         (["sweep", "--out", "x.csv", "--smoother", "none", "--exponent"], "expected at least one"),
         (["sweep", "--out", "x.csv", "--seeds", "0"], "argument --seeds: must be >= 1"),
         (["sweep", "--out", "x.xlsx"], "argument --out: must end in .csv or .parquet"),

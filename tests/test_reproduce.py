@@ -1,12 +1,15 @@
 """validation.reproduce: the report end to end, its regenerability, and each decision rule.
 
 The decision rules are checked on hand-made sweep tables whose verdicts are known by
-construction; the report itself runs as ``--quick`` (3 seeds, about 1000 positions, a 4 x 4
-fine map) into two folders, which also proves that it regenerates byte for byte. The first
-run takes the default output folder, which must not be the committed report.
+construction; the report itself runs as ``--quick`` (2 seeds, about 1000 positions, a 2 x 2
+fine map; the sphere cells only: the tests never read MNE's testing dataset) into two
+folders, which also proves that it regenerates byte for byte. The first run takes the
+default output folder, which must not be the committed report.
 """
 
+import contextlib
 import hashlib
+import io
 import json
 import re
 import shutil
@@ -21,6 +24,8 @@ import pytest
 from validation import reproduce as rp
 from validation.reproduce.sensitivity import SENSITIVITY, crop_head
 from validation.reproduce.settings import (
+    CELLS,
+    CONTROLS,
     DEFAULT_OUT,
     EXPONENTS,
     FULL,
@@ -33,10 +38,12 @@ from validation.reproduce.settings import (
     Settings,
 )
 
-# What the issue asks the tests to run: the quick report (about 16 s on two cores).
+# What the issue asks the tests to run: the quick report; without MNE's testing dataset (the
+# tests never read it) only the sphere cells run and the BEM cells are marked "not run".
 QUICK = ["--quick", "--jobs", "2"]
-QUICK_SEEDS = 3
-N_FIGURES = 6 + 1 + 4 + 2  # prior grids, exponents, average maps, fine maps
+QUICK_SEEDS = 2
+SPHERE_CELLS = [cell for cell in CELLS if not cell.realistic]
+N_CELL_FIGURES = 6 + 1 + 4 + 2  # prior grids, exponents, average maps, fine maps
 FIGURE_LINK = re.compile(r"!\[[^\]]*\]\(([^)]+)\)")
 
 
@@ -63,6 +70,13 @@ def _git_status(folder):
     return result.stdout if result.returncode == 0 else None
 
 
+def _no_dataset(patch, folder):
+    """MNE's lookup of its testing dataset finds nothing (the tests never read it)."""
+    import mne
+
+    patch.setattr(mne.datasets.testing, "data_path", lambda **kwargs: folder / "no-dataset")
+
+
 @pytest.fixture(scope="module")
 def committed_report():
     """The committed report folder's files and git status before any report test runs."""
@@ -71,85 +85,147 @@ def committed_report():
 
 @pytest.fixture(scope="module")
 def reports(tmp_path_factory, committed_report):
-    """Two independent runs of the quick report, each into its own folder.
+    """Two independent runs of the quick report, each into its own folder, and the first's
+    standard error.
 
     The first runs without ``--out`` from a scratch current directory, so it writes to the
     default folder of a quick run; the second into a folder given with ``--out``.
     """
     cwd = tmp_path_factory.mktemp("cwd")
+    err = io.StringIO()
     with pytest.MonkeyPatch.context() as patch:
+        _no_dataset(patch, cwd)
         patch.chdir(cwd)
-        assert rp.main(QUICK) == 0
-    second = tmp_path_factory.mktemp("report1")
-    assert rp.main([*QUICK, "--out", str(second)]) == 0
-    return [cwd / QUICK_OUT, second]
+        with contextlib.redirect_stderr(err):
+            assert rp.main(QUICK) == 0
+        second = tmp_path_factory.mktemp("report1")
+        assert rp.main([*QUICK, "--out", str(second)]) == 0
+    return [cwd / QUICK_OUT, second], err.getvalue()
 
 
 def _without_date(path):
     return [line for line in path.read_text().splitlines() if not line.startswith("Generated:")]
 
 
-def _findings_rows(text):
-    section = text.split("## Findings", 1)[1].split("\n## ", 1)[0]
-    return [line for line in section.splitlines() if re.match(r"\| F\d", line)]
+def _section(text, title):
+    return text.split(title, 1)[1].split("\n## ", 1)[0]
+
+
+def _findings_rows(text, title="## Findings"):
+    return [line for line in _section(text, title).splitlines() if re.match(r"\| F\d", line)]
+
+
+def _verdict(cell):
+    return cell.strip().strip("*")
 
 
 class TestReport:
     def test_quick_run_leaves_the_committed_report_alone(self, reports, committed_report):
         files, status = committed_report
-        assert (reports[0] / "REPORT.md").exists()  # the default folder of a quick run
+        assert (reports[0][0] / "REPORT.md").exists()  # the default folder of a quick run
         assert _snapshot(DEFAULT_OUT) == files
         assert _git_status(DEFAULT_OUT) == status
 
+    def test_one_line_says_how_to_point_at_the_dataset(self, reports):
+        lines = [line for line in reports[1].splitlines() if "testing dataset" in line]
+        assert len(lines) == 1 and "--mne-testing-data DIR" in lines[0]
+
     def test_rules_come_before_the_findings(self, reports):
-        text = (reports[0] / "REPORT.md").read_text()
-        assert 0 < text.index("## Decision rules") < text.index("## Findings")
+        text = (reports[0][0] / "REPORT.md").read_text()
+        v1, v2 = text.index("## Decision rules\n"), text.index("## Decision rules, v2")
+        assert 0 < v1 < v2 < text.index("## Findings")
         assert text.count("Generated:") == 1
 
-    def test_one_valid_verdict_per_finding(self, reports):
-        rows = _findings_rows((reports[0] / "REPORT.md").read_text())
+    def test_v1_and_v2_verdicts_in_every_cell_and_not_run_without_the_dataset(self, reports):
+        rows = _findings_rows((reports[0][0] / "REPORT.md").read_text())
         assert [row.split("|")[1].strip() for row in rows] == [f"F{i}" for i in range(1, 7)]
         for row in rows:
-            verdict = row.rstrip(" |").rsplit("|", 1)[1].strip()
-            assert verdict.strip("*") in VERDICTS
+            cells = [cell.strip() for cell in row.strip(" |").split("|")[2:]]
+            assert len(cells) == len(CELLS)
+            for cell, text in zip(CELLS, cells, strict=True):
+                if cell.realistic:
+                    assert text == "not run"
+                else:
+                    assert [_verdict(v) for v in text.split(" / ")] in [
+                        [a, b] for a in VERDICTS for b in VERDICTS
+                    ]
 
     def test_every_linked_figure_exists(self, reports):
-        links = FIGURE_LINK.findall((reports[0] / "REPORT.md").read_text())
-        assert len(set(links)) == N_FIGURES
+        folder = reports[0][0]
+        links = FIGURE_LINK.findall((folder / "REPORT.md").read_text())
+        assert links == ["source_placement.png"]
+        for cell in SPHERE_CELLS:
+            page = folder / cell.name / "CELL.md"
+            cell_links = FIGURE_LINK.findall(page.read_text())
+            assert len(set(cell_links)) == N_CELL_FIGURES
+            links += [f"{cell.name}/{name}" for name in cell_links]
         for name in links:
-            assert (reports[0] / name).read_bytes().startswith(b"\x89PNG")
+            assert (folder / name).read_bytes().startswith(b"\x89PNG")
 
-    def test_tables_written(self, reports):
-        for name in ("paper_grid.csv", "fine_grid.csv", "summary.csv"):
-            assert len(pd.read_csv(reports[0] / name)) > 0
-        paper = pd.read_csv(reports[0] / "paper_grid.csv")
-        # snr, EP, PM, exponent, smoother, seed
-        assert len(paper) == 3 * 2 * 2 * 4 * 3 * QUICK_SEEDS
+    def test_tables_and_controls_written(self, reports):
+        for cell in SPHERE_CELLS:
+            folder = reports[0][0] / cell.name
+            for name in ("paper_grid.csv", "fine_grid.csv", "summary.csv", *CONTROLS.values()):
+                assert len(pd.read_csv(folder / name)) > 0, name
+            paper = pd.read_csv(folder / "paper_grid.csv")
+            # snr, EP, PM, exponent, smoother, seed
+            assert len(paper) == 3 * 2 * 2 * 4 * 3 * QUICK_SEEDS
+            assert set(paper["conductor"]) == {cell.conductor}
+            assert set(paper["source_space"]) == {cell.source_space}
+            for source, name in CONTROLS.items():
+                control = pd.read_csv(folder / name)
+                assert set(control["sources"]) == {source}
+                # F4's corners (12) and every exponent and smoother at EP 20, PM 0 (36),
+                # one setting shared, at each seed
+                assert len(control) == (12 + 36 - 3) * QUICK_SEEDS
+        text = (reports[0][0] / "REPORT.md").read_text()
+        assert "## Controls" in text and "## A lone source" in text
+        assert not (reports[0][0] / "variants").exists()  # the variants: full runs only
 
     def test_regenerable_byte_for_byte(self, reports):
-        first, second = reports
+        first, second = reports[0]
         assert _without_date(first / "REPORT.md") == _without_date(second / "REPORT.md")
-        for name in FIGURE_LINK.findall((first / "REPORT.md").read_text()):
-            assert (first / name).read_bytes() == (second / name).read_bytes(), name
-        for name in ("paper_grid.csv", "fine_grid.csv", "summary.csv", SENSITIVITY):
-            assert (first / name).read_bytes() == (second / name).read_bytes(), name
+        assert (first / "source_placement.png").read_bytes() == (
+            second / "source_placement.png"
+        ).read_bytes()
+        for cell in SPHERE_CELLS:
+            a, b = first / cell.name, second / cell.name
+            assert (a / "CELL.md").read_text() == (b / "CELL.md").read_text()
+            for name in FIGURE_LINK.findall((a / "CELL.md").read_text()):
+                assert (a / name).read_bytes() == (b / name).read_bytes(), name
+            names = ["paper_grid.csv", "fine_grid.csv", "summary.csv", *CONTROLS.values()]
+            if cell.name == "sphere-volume":
+                names.append(SENSITIVITY)
+            for name in names:
+                assert (a / name).read_bytes() == (b / name).read_bytes(), name
 
     def test_sensitivity_follows_the_discussion(self, reports):
-        text = (reports[0] / "REPORT.md").read_text()
+        text = (reports[0][0] / "sphere-volume" / "CELL.md").read_text()
         title = "## Sensitivity (post hoc): source grid above the lowest electrode"
         assert text.index("## Discussion") < text.index(title) < text.index("## Tables")
-        section = text.split(title, 1)[1].split("\n## ", 1)[0]
+        section = _section(text, title)
         assert re.search(r"\d+ of \d+ positions remain", section)
         rows = [line for line in section.splitlines() if re.match(r"\| F\d", line)]
         assert [row.split("|")[1].strip() for row in rows] == ["F5", "F6"]
-        table = pd.read_csv(reports[0] / SENSITIVITY)
+        table = pd.read_csv(reports[0][0] / "sphere-volume" / SENSITIVITY)
         # snr, exponent, smoother (none, rts-standardized), seed
         assert len(table) == 3 * 4 * 2 * QUICK_SEEDS
 
-    def test_rerun_reuses_rows_and_gives_the_same_report(self, reports, capsys):
-        out = reports[1]
+    def test_each_cell_page_has_both_rule_sets(self, reports):
+        for cell in SPHERE_CELLS:
+            text = (reports[0][0] / cell.name / "CELL.md").read_text()
+            for title in ("## Findings by the v1 rules", "## Findings by the v2 rules"):
+                rows = _findings_rows(text, title)
+                assert [row.split("|")[1].strip() for row in rows] == [
+                    f"F{i}" for i in range(1, 7)
+                ]
+
+    def test_rerun_reuses_rows_and_gives_the_same_report(self, reports, tmp_path):
+        out = reports[0][1]
         before = _without_date(out / "REPORT.md")
-        assert rp.main([*QUICK, "--out", str(out)]) == 0
+        with pytest.MonkeyPatch.context() as patch:
+            _no_dataset(patch, tmp_path)
+            assert rp.main([*QUICK, "--out", str(out)]) == 0
         generated = [
             line for line in (out / "REPORT.md").read_text().splitlines() if "Generated:" in line
         ]
@@ -211,9 +287,11 @@ class TestPrepareOut:
         (["--fine-step", "-10"], "--fine-step"),
         (["--bogus"], "unrecognized"),
         (["--n-positions", "10"], "n_positions"),
+        (["--mne-testing-data", "."], "testing_data must be MNE's testing dataset folder"),
     ],
 )
-def test_bad_arguments_print_one_line_and_return_2(argv, message, tmp_path, capsys):
+def test_bad_arguments_print_one_line_and_return_2(argv, message, tmp_path, capsys, monkeypatch):
+    _no_dataset(monkeypatch, tmp_path)
     assert rp.main([*argv, "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
@@ -227,9 +305,11 @@ def test_bad_arguments_print_one_line_and_return_2(argv, message, tmp_path, caps
         ["--seeds", "3", "--out", str(DEFAULT_OUT)],
         ["--n-positions", "1000", "--out", str(DEFAULT_OUT / "sub")],
         ["--fine-step", "20", "--out", str(DEFAULT_OUT / ".." / DEFAULT_OUT.name)],
+        ["--out", str(DEFAULT_OUT)],  # no testing dataset: the sphere cells only
     ],
 )
-def test_partial_run_into_the_committed_report_is_refused(argv, capsys):
+def test_partial_run_into_the_committed_report_is_refused(argv, capsys, monkeypatch, tmp_path):
+    _no_dataset(monkeypatch, tmp_path)
     before = _snapshot(DEFAULT_OUT)
     assert rp.main(argv) == 2
     err = capsys.readouterr().err
@@ -239,12 +319,13 @@ def test_partial_run_into_the_committed_report_is_refused(argv, capsys):
 
 
 def test_output_folder():
-    quick = Settings(seeds=3, n_positions=1000, fine_step=20.0, quick=True)
+    quick = Settings(seeds=2, n_positions=1000, fine_step=60.0, quick=True)
     assert rp.output_folder(FULL) == DEFAULT_OUT
     assert rp.output_folder(Settings(seeds=10)) == DEFAULT_OUT  # the full preset's values
     assert rp.output_folder(FULL, DEFAULT_OUT) == DEFAULT_OUT
     assert rp.output_folder(quick) == QUICK_OUT
     assert rp.output_folder(Settings(seeds=4)) == QUICK_OUT
+    assert rp.output_folder(Settings(realistic=False)) == QUICK_OUT  # no BEM cells
     assert rp.output_folder(quick, Path("elsewhere")) == Path("elsewhere")
     with pytest.raises(ValueError, match="is the committed report folder"):
         rp.output_folder(Settings(n_positions=500), DEFAULT_OUT)
@@ -483,7 +564,7 @@ def test_evaluate_on_a_full_table_gives_six_findings():
 def test_blas_order_does_not_change_the_outputs(monkeypatch):
     # threadpoolctl lists the BLAS libraries in an order that varies between processes;
     # the manifest and the results files must not depend on it.
-    from validation.reproduce import cli, settings
+    from validation.reproduce import cells, settings
 
     libraries = [
         {"library": "openblas", "version": "0.3.31", "threads": 2, "threading_layer": "pthreads"},
@@ -494,7 +575,7 @@ def test_blas_order_does_not_change_the_outputs(monkeypatch):
         monkeypatch.setattr(settings, "blas_threads", lambda order=order: list(order))
         manifests.append(settings.manifest(FULL)["blas"])
     assert manifests[0] == manifests[1]
-    assert cli._sorted_words("openblas-0.3.31 openblas-0.3.30") == cli._sorted_words(
+    assert cells._sorted_words("openblas-0.3.31 openblas-0.3.30") == cells._sorted_words(
         "openblas-0.3.30 openblas-0.3.31"
     )
-    assert cli._sorted_words("none") == "none"
+    assert cells._sorted_words("none") == "none"

@@ -4,7 +4,14 @@ import mne
 import numpy as np
 import pytest
 
-from skf_ref.simulate import make_head_model, p20n20_scenario, simulate
+from skf_ref.head import template_mni_to_head
+from skf_ref.simulate import (
+    DEEP_MNI_MM,
+    SUPERFICIAL_MNI_MM,
+    make_head_model,
+    p20n20_scenario,
+    simulate,
+)
 
 POSITIONS = 500
 # The noise standard deviation estimated from 64 x 41 x 20 samples has a relative standard
@@ -73,15 +80,68 @@ def test_waveforms_and_times(scenario):
 
 def test_source_positions_and_orientations(head, scenario):
     truth = scenario.dipoles(head)
-    np.testing.assert_allclose(truth.positions * 1e3, [[-12, -32, 50], [-33, -37, 80]])
+    # MNI coordinates placed through the template's head frame (a rigid map for a sphere)
+    mni_to_head = template_mni_to_head()
+    mni = np.array([DEEP_MNI_MM, SUPERFICIAL_MNI_MM]) * 1e-3
+    np.testing.assert_allclose(truth.positions, mni @ mni_to_head[:3, :3].T + mni_to_head[:3, 3])
+    np.testing.assert_allclose(mni_to_head[:3, :3] @ mni_to_head[:3, :3].T, np.eye(3), atol=1e-6)
+    assert truth.moved_mm == (0.0, 0.0)  # the sphere has no labels to move them into
     np.testing.assert_allclose(np.linalg.norm(truth.orientations, axis=1), 1.0)
-    deep = np.array([0.2, 0.196, -0.981])
+    deep = mni_to_head[:3, :3] @ np.array([0.2, 0.196, -0.981])
     np.testing.assert_allclose(truth.orientations[0], deep / np.linalg.norm(deep))
     radial = truth.positions[1] - head.origin
     assert truth.orientations[1] @ radial == pytest.approx(0, abs=1e-12)  # tangential
-    given, unit_radial = np.array([0.2, 1, 0]), radial / np.linalg.norm(radial)
+    given, unit_radial = mni_to_head[:3, :3] @ [0.2, 1, 0], radial / np.linalg.norm(radial)
     tangential = given - (given @ unit_radial) * unit_radial  # what is left of (0.2, 1, 0)
     np.testing.assert_allclose(truth.orientations[1], tangential / np.linalg.norm(tangential))
+    # both inside the brain sphere: the deep one about 21 mm from its centre, the other 68 mm
+    depths = np.linalg.norm(truth.positions - head.origin, axis=1) * 1e3
+    np.testing.assert_allclose(depths, [20.7, 68.2], atol=0.1)
+
+
+def test_head_coordinates_are_taken_as_given(head):
+    scenario = p20n20_scenario(
+        deep_position_mm=(-12, -32, 50), superficial_position_mm=(-33, -37, 80), frame="head"
+    )
+    truth = scenario.dipoles(head)
+    np.testing.assert_allclose(truth.positions * 1e3, [[-12, -32, 50], [-33, -37, 80]])
+
+
+def test_a_control_holds_one_source_and_the_noise_of_both(head, scenario):
+    both = simulate(head, scenario, 20.0, seed=3)
+    for index, name in enumerate(("deep", "superficial")):
+        alone = simulate(head, scenario, 20.0, seed=3, sources=(name,))
+        assert alone.sigma == both.sigma and alone.sources == (name,)
+        gain = head.dipole_gain(both.truth.positions, both.truth.orientations)
+        expected = np.outer(gain[:, index], both.truth.waveforms[index])
+        np.testing.assert_allclose(alone.Y_clean, expected, rtol=1e-12, atol=0)
+        noise = both.Y - both.Y_clean  # the same draws (to the rounding of adding Y_clean)
+        scale = np.abs(both.Y).max()
+        np.testing.assert_allclose(alone.Y - alone.Y_clean, noise, atol=1e-14 * scale)
+    with pytest.raises(ValueError, match="sources must be a non-empty subset"):
+        simulate(head, scenario, 20.0, seed=3, sources=("thalamus",))
+
+
+def test_grid_forward_uses_the_nearest_columns(head, scenario):
+    sim = simulate(head, scenario, 20.0, seed=0, forward="grid")
+    truth = sim.truth
+    nearest = np.linalg.norm(head.positions[:, None] - truth.positions[None], axis=2).argmin(0)
+    columns = [
+        head.leadfield[:, 3 * p : 3 * p + 3] @ o
+        for p, o in zip(nearest, truth.orientations, strict=True)
+    ]
+    np.testing.assert_allclose(sim.Y_clean, np.stack(columns, axis=1) @ truth.waveforms)
+
+
+def test_blackman_harris_pulses():
+    scenario = p20n20_scenario(window="blackman-harris")
+    deep = scenario.waveforms[0] / scenario.waveforms[0].max()
+    times_ms = scenario.times * 1e3
+    assert times_ms[np.argmax(deep)] == pytest.approx(1.5)
+    # the 4-term window at 5/6 of its support: 0.35875 - 0.48829/2 - 0.14128/2 + 0.01168
+    assert deep[np.isclose(times_ms, 2.5)][0] == pytest.approx(0.055645, abs=1e-6)
+    with pytest.raises(ValueError, match="window must be one of"):
+        p20n20_scenario(window="hamming")
 
 
 def test_data_come_from_the_exact_dipoles(head, scenario):

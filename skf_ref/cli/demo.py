@@ -21,10 +21,13 @@ def add_parser(subparsers):
         "demo",
         help="the paper's P20/N20 study at one setting: metrics, figures and arrays",
         description="Simulate the P20/N20 scenario (a deep thalamic and a superficial "
-        "cortical dipole, 2 ms apart) in the spherical head model, reconstruct it with the SKF "
-        "without and with smoothing, print the metrics and write figures (PNG), arrays "
-        "(reconstruction.npz), the metrics (metrics.csv, explained in metrics_columns.csv) "
-        "and everything that produced them (settings.json) to the output folder.",
+        "cortical dipole, 2 ms apart), reconstruct it with the SKF without and with "
+        "smoothing, print the metrics and write figures (PNG), arrays (reconstruction.npz), "
+        "the metrics (metrics.csv, explained in metrics_columns.csv) and everything that "
+        "produced them (settings.json) to the output folder. The head is the realistic one "
+        "(a three-layer BEM of MNE's 'sample' subject, cortex + thalamus source space) when "
+        "MNE's testing dataset is at hand (--mne-testing-data DIR, or found by MNE without "
+        "downloading), the spherical one (a volume grid) otherwise; the demo says which.",
     )
     demo.add_argument("--out", type=Path, default=Path("skf-demo"), help="output folder")
     demo.add_argument("--snr-db", type=db(), default=30.0, help="data peak SNR (dB)")
@@ -38,7 +41,27 @@ def add_parser(subparsers):
         "--positions",
         type=integer(minimum=420),
         default=3000,
-        help="source positions requested (the grid holds the nearest count it can)",
+        help="source positions requested of the sphere's grid (it holds the nearest count it can)",
+    )
+    demo.add_argument(
+        "--head",
+        choices=("auto", "realistic", "sphere"),
+        default="auto",
+        help="'realistic' needs MNE's testing dataset; 'auto': realistic if the dataset is "
+        "found, else the sphere",
+    )
+    demo.add_argument(
+        "--mne-testing-data",
+        type=Path,
+        metavar="DIR",
+        help="MNE's testing dataset folder (default: MNE's own lookup, never downloading)",
+    )
+    demo.add_argument(
+        "--cache-dir",
+        type=Path,
+        metavar="DIR",
+        help="where the realistic head's forward models are cached (default: "
+        "$SKF_REF_CACHE_DIR or the user's cache folder)",
     )
     demo.add_argument("--montage", default="biosemi64", help="MNE built-in montage")
     demo.add_argument("--seed", type=integer(minimum=0), default=0, help="noise seed")
@@ -87,14 +110,18 @@ def _settings(args, head, sim, theta0, q):
         "ep_snr_db": args.ep_snr_db,
         "exponent": args.exponent,
         "smoother": None if args.smoother == "none" else args.smoother,
-        "positions_requested": args.positions,
+        "positions_requested": args.positions if head.conductor_kind == "sphere" else None,
         "n_positions": head.n_positions,
         "montage": args.montage,
         "seed": args.seed,
         "sigma": sim.sigma,
         "theta0": theta0,
         "q": q,
-        "head": "sphere (MNE make_sphere_model, fitted to the montage), volume grid",
+        "head": head.description,
+        "head_kind": "realistic" if head.conductor_kind == "bem" else "sphere",
+        "conductor": head.conductor_kind,
+        "source_space": head.source_space,
+        "sources_moved_mm": list(sim.truth.moved_mm),
         "machine": machine(),
     }
 
@@ -106,6 +133,40 @@ def _setting_line(args):
     )
 
 
+def _testing_data(args):
+    """MNE's testing dataset for the realistic head, or None for the sphere."""
+    from ..checks import InputError
+    from ..head import find_testing_data
+
+    if args.head == "sphere":
+        if args.mne_testing_data is not None:
+            raise InputError("--mne-testing-data: not used with --head sphere; drop one")
+        return None
+    try:
+        found = find_testing_data(args.mne_testing_data)
+    except InputError as err:
+        raise InputError(f"--mne-testing-data: {str(err).split(', got ', 1)[0]}") from None
+    if found is None and args.head == "realistic":
+        raise InputError(
+            "--head realistic needs MNE's testing dataset: give --mne-testing-data DIR (the "
+            "folder mne.datasets.testing.data_path() returns); MNE did not find it"
+        )
+    return found
+
+
+def _head_line(head, testing, args):
+    if testing is not None:
+        return f"realistic: {head.description}"
+    why = (
+        ""
+        if args.head == "sphere"
+        else (
+            "; MNE's testing dataset not found: give --mne-testing-data DIR for the realistic head"
+        )
+    )
+    return f"sphere: {head.description}{why}"
+
+
 def run(args):
     """Run ``skf-ref demo``; returns the metrics as a pandas DataFrame."""
     import pandas as pd
@@ -114,10 +175,18 @@ def run(args):
     from .. import metrics, simulate
 
     head_model.check_montage(args.montage)
-    outputs = 3 * memory.spectral_memory(3 * args.positions, 64, 41)
-    head_model.check_size(args.positions, args.montage, extra=outputs, name="--positions")
+    testing = _testing_data(args)
+    if testing is None:
+        outputs = 3 * memory.spectral_memory(3 * args.positions, 64, 41)
+        head_model.check_size(args.positions, args.montage, extra=outputs, name="--positions")
     with progress(args, "head model"):
-        head = head_model.make_head_model(args.positions, args.montage)
+        if testing is None:
+            head = head_model.make_head_model(args.positions, args.montage)
+        else:
+            head = head_model.make_realistic_head(
+                testing, "anatomical", args.montage, cache_dir=args.cache_dir
+            )
+    print(f"head: {_head_line(head, testing, args)}")
     scenario = simulate.p20n20_scenario()
     sim = simulate.simulate(head, scenario, args.snr_db, args.seed)
     with progress(args, "SKF"):
@@ -163,7 +232,7 @@ def _figures(args, head, sim, runs):
 
     for label, rec in runs.items():
         name = "filter only" if label == "filtered" else args.smoother
-        title = f"SKF, {name}: {_setting_line(args)}"
+        title = f"SKF, {name}:\n{_setting_line(args)}"
         with atomic_path(args.out / f"time_courses_{label}.png") as tmp:
             plots.plot_time_courses(rec, head, sim.truth, title=title, path=tmp)
         with atomic_path(args.out / f"projections_{label}.png") as tmp:
@@ -171,6 +240,6 @@ def _figures(args, head, sim, runs):
                 rec,
                 head,
                 sim.truth,
-                title=f"{title}\none noise realization (seed {args.seed})",
+                title=f"{title}, one noise realization (seed {args.seed})",
                 path=tmp,
             )

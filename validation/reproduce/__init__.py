@@ -45,7 +45,8 @@ above the lowest electrode, ``sensitivity.csv``), ``figures`` (matplotlib, impor
 :func:`main`).
 """
 
-from .cli import main, output_folder, prepare_out, run_sweeps
+from .cells import CellResult, Variant, best_cell, run_cell_sweeps, run_variants
+from .cli import main, output_folder, prepare_out
 from .figures import make_figures, plot_fine_map
 from .report import ReportData, report_text
 from .rules import Finding, evaluate, rule_f1, rule_f2, rule_f3, rule_f4, rule_f5, rule_f6, verdict
@@ -77,7 +78,11 @@ __all__ = [
     "rule_f4",
     "rule_f5",
     "rule_f6",
-    "run_sweeps",
+    "run_cell_sweeps",
+    "run_variants",
+    "best_cell",
+    "CellResult",
+    "Variant",
     "summary_table",
     "verdict",
 ]

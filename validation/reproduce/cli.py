@@ -16,7 +16,9 @@ from pathlib import Path
 
 from skf_ref.files import atomic_path
 
-from .figures import make_figures
+from .cells import best_cell, result_files, run_cell_sweeps, run_variants
+from .figures import make_figures, save_source_placement
+from .overview import Overview, overview_text
 from .report import ReportData, report_text
 from .rules import evaluate
 from .runs import CheckedRuns, diagnostics
@@ -35,13 +37,13 @@ from .settings import (
 )
 from .stats import summary_table
 
-__all__ = ["main", "output_folder", "prepare_out", "run_sweeps"]
+__all__ = ["main", "output_folder", "prepare_out"]
 
 
 # --------------------------------------------------------------------------- results files
 
 
-def prepare_out(out, wanted, fresh=False):
+def prepare_out(out, wanted, fresh=False, names=RESULTS):
     """Create ``out``; delete its results files if stale (or if ``fresh``).
 
     Parameters
@@ -52,6 +54,8 @@ def prepare_out(out, wanted, fresh=False):
         The current :func:`manifest`.
     fresh : bool
         Delete the results files even if the recorded settings match.
+    names : sequence of str
+        The results files, relative to ``out``.
 
     Returns
     -------
@@ -60,7 +64,7 @@ def prepare_out(out, wanted, fresh=False):
     """
     out.mkdir(parents=True, exist_ok=True)
     recorded = out / MANIFEST
-    existing = [out / name for name in RESULTS if (out / name).exists()]
+    existing = [out / name for name in names if (out / name).exists()]
     try:
         previous = json.loads(recorded.read_text()) if recorded.exists() else None
     except json.JSONDecodeError:
@@ -76,60 +80,6 @@ def prepare_out(out, wanted, fresh=False):
     with atomic_path(recorded) as tmp:
         tmp.write_text(json.dumps(wanted, indent=1, sort_keys=True) + "\n")
     return reason if existing else None
-
-
-def run_sweeps(settings, out, n_jobs, progress):
-    """Run (or resume) both sweeps; return the sorted paper and fine tables and the new rows.
-
-    Parameters
-    ----------
-    settings : Settings
-    out : Path
-    n_jobs : int
-    progress : bool
-
-    Returns
-    -------
-    paper, fine : pandas.DataFrame
-        Every row of the results files, sorted by the sweep key (only this run's grids:
-        :func:`prepare_out` deleted files computed under other settings).
-    computed : int
-        Rows computed by this call (the others were reused).
-    """
-    from skf_ref.sweep import read_results, run_sweep
-
-    before = sum(len(read_results(out / name)) for name in RESULTS)
-    kwargs = dict(n_jobs=n_jobs, n_positions=settings.n_positions, montage=MONTAGE)
-    run_sweep(settings.paper_grid(), out / RESULTS[0], progress=progress, **kwargs)
-    for grid in settings.fine_grids():
-        run_sweep(grid, out / RESULTS[1], progress=progress, **kwargs)
-    tables = [_sorted_rewrite(out / name) for name in RESULTS]
-    computed = sum(len(t) for t in tables) - before
-    return tables[0], tables[1], computed
-
-
-def _sorted_rewrite(path):
-    """Sort a results file by its key and rewrite it (atomically); return the table."""
-    from skf_ref.sweep import KEY, read_results
-
-    table = read_results(path)
-    table = table.sort_values(list(KEY), kind="stable", ignore_index=True)
-    if "blas" in table:
-        table["blas"] = table["blas"].map(_sorted_words)
-    with atomic_path(path) as tmp:
-        table.to_csv(tmp, index=False, lineterminator="\n")
-    return table
-
-
-def _sorted_words(value):
-    """The words of a ``blas`` cell in sorted order.
-
-    ``skf_ref.provenance.blas_threads`` lists the loaded BLAS libraries in an order that
-    varies from process to process (threadpoolctl's order follows the string hash seed), so
-    sweep rows computed by different workers name the same libraries in different orders.
-    Sorting them keeps the results files regenerable byte for byte.
-    """
-    return " ".join(sorted(value.split())) if isinstance(value, str) else value
 
 
 # --------------------------------------------------------------------------- arguments
@@ -162,16 +112,26 @@ def _parser():
     parser.add_argument("--seeds", type=int, help="override the preset's number of seeds")
     parser.add_argument("--n-positions", type=int, help="override the preset's head model size")
     parser.add_argument("--fine-step", type=float, help="override the fine map's step (dB)")
+    parser.add_argument(
+        "--mne-testing-data",
+        metavar="DIR",
+        help="MNE's testing dataset folder, for the BEM cells (default: MNE's own lookup, "
+        "never downloading)",
+    )
+    parser.add_argument(
+        "--cache-dir", metavar="DIR", help="where the BEM forward models are cached"
+    )
     return parser
 
 
-def _settings(args):
+def _settings(args, realistic=True):
     preset = QUICK if args.quick else FULL
     settings = Settings(
         seeds=preset.seeds if args.seeds is None else args.seeds,
         n_positions=preset.n_positions if args.n_positions is None else args.n_positions,
         fine_step=preset.fine_step if args.fine_step is None else args.fine_step,
         quick=args.quick,
+        realistic=realistic,
     )
     if args.jobs == 0 or args.jobs < -1:
         raise _UsageError(f"--jobs must be a positive number of workers or -1, got {args.jobs}")
@@ -213,8 +173,8 @@ def output_folder(settings, out=None):
     ------
     ValueError
         If the settings are not the full preset's (``--quick``, or ``--seeds``,
-        ``--n-positions``, ``--fine-step`` changing a value) and ``out`` is the committed
-        report folder or inside it.
+        ``--n-positions``, ``--fine-step`` changing a value, or no testing dataset for the
+        BEM cells) and ``out`` is the committed report folder or inside it.
     """
     full = settings.is_full()
     if out is None:
@@ -230,20 +190,50 @@ def output_folder(settings, out=None):
 # --------------------------------------------------------------------------- main
 
 
-def _report_data(settings, head, wanted, paper, fine, out):
-    """Judge the findings, draw the figures, run the diagnostics and the sensitivity analysis."""
-    runs = CheckedRuns(head, paper)
-    return ReportData(
+def _judge_cell(result, settings, wanted, out, n_jobs=1):
+    """Verdicts, figures, diagnostics (and the sphere grid's sensitivity) of one cell."""
+    from .rules_v2 import evaluate_v2
+
+    folder = out / result.cell.name
+    runs = CheckedRuns(result.head, result.paper)
+    result.findings = evaluate(result.paper)
+    result.findings_v2 = evaluate_v2(result.paper, result.controls)
+    result.figures = make_figures(folder, runs, settings, result.fine)
+    result.diagnostics = diagnostics(runs, settings.seeds)
+    if result.cell.name == "sphere-volume":
+        result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, n_jobs)
+    with atomic_path(folder / "summary.csv") as tmp:
+        summary_table(result.paper, result.fine).to_csv(
+            tmp, index=False, float_format="%.6g", lineterminator="\n"
+        )
+    data = ReportData(
         settings=settings,
-        head=head,
+        head=result.head,
         manifest=wanted,
-        paper=paper,
-        fine=fine,
-        findings=evaluate(paper),
-        figures=make_figures(out, runs, settings, fine),
-        diagnostics=diagnostics(runs, settings.seeds),
-        sensitivity=run_sensitivity(head, settings.seeds, out),
+        paper=result.paper,
+        fine=result.fine,
+        findings=result.findings,
+        figures=result.figures,
+        diagnostics=result.diagnostics,
+        sensitivity=result.sensitivity,
+        findings_v2=result.findings_v2,
+        truth=result.truth,
+        title=result.cell.title,
     )
+    with atomic_path(folder / "CELL.md") as tmp:
+        tmp.write_text(report_text(data))
+
+
+def _placement(out, results):
+    heads, truths = {}, {}
+    for conductor in ("sphere", "bem"):
+        volume = results.get(f"{conductor}-volume")
+        anatomical = results.get(f"{conductor}-anatomical")
+        if anatomical is None or volume is None:
+            continue
+        label = "sphere (template)" if conductor == "sphere" else "BEM (sample subject)"
+        heads[label], truths[label] = anatomical.head, anatomical.truth
+    return save_source_placement(out, heads, truths)
 
 
 def _generated(elapsed, jobs, computed, total):
@@ -254,6 +244,13 @@ def _generated(elapsed, jobs, computed, total):
         f"({computed} of {total} runs computed, {total - computed} reused from the results "
         "files)."
     )
+
+
+_NO_DATASET = (
+    "reproduce: the BEM cells need MNE's testing dataset: give --mne-testing-data DIR (DIR: "
+    "the folder mne.datasets.testing.data_path() returns; nothing is downloaded); running "
+    "the sphere cells only"
+)
 
 
 def main(argv=None):
@@ -270,34 +267,62 @@ def main(argv=None):
         0 on success, 2 for bad arguments (one line on stderr).
     """
     from skf_ref import simulate
+    from skf_ref.head import find_testing_data
+    from skf_ref.sweep import read_results
 
     start = time.perf_counter()
     try:
         args = _parser().parse_args(argv)
-        settings = _settings(args)
+        testing = find_testing_data(args.mne_testing_data)
+        settings = _settings(args, realistic=testing is not None)
         out = output_folder(settings, args.out)
         head = simulate.make_head_model(settings.n_positions, MONTAGE)
         simulate.simulate(head, simulate.p20n20_scenario(), 30.0, 0)  # the grid holds it
     except (_UsageError, ValueError) as err:
         print(f"reproduce: {err}", file=sys.stderr)
         return 2
-    wanted = manifest(settings)
-    reason = prepare_out(out, wanted, args.fresh)
+    if testing is None:
+        print(_NO_DATASET, file=sys.stderr)
+    wanted = manifest(settings, testing)
+    names = result_files(settings)
+    reason = prepare_out(out, wanted, args.fresh, names)
     if reason is not None:
         print(f"reproduce: deleted the previous results ({reason})", file=sys.stderr)
-    paper, fine, computed = run_sweeps(settings, out, args.jobs, sys.stderr.isatty())
-    data = _report_data(settings, head, wanted, paper, fine, out)
-    with atomic_path(out / "summary.csv") as tmp:
-        summary_table(paper, fine).to_csv(
-            tmp, index=False, float_format="%.6g", lineterminator="\n"
-        )
-    text = report_text(data)
+    before = sum(len(read_results(out / name)) for name in names)
+    progress, results = sys.stderr.isatty(), {}
+    common = dict(testing_data=testing, cache_dir=args.cache_dir)
+    for cell in settings.cells:
+        result = run_cell_sweeps(cell, settings, out, args.jobs, progress, **common)
+        _judge_cell(result, settings, wanted, out, args.jobs)
+        results[cell.name] = result
+    best = best_cell(results)
+    variants = []
+    if not settings.quick:
+        best_cell_ = next(cell for cell in settings.cells if cell.name == best)
+        variants = run_variants(best_cell_, settings, out, args.jobs, progress, **common)
+    total = sum(len(read_results(out / name)) for name in names)
+    skipped = None if testing is not None else "MNE's testing dataset was not given or found"
+    data = Overview(
+        settings=settings,
+        manifest=wanted,
+        results=results,
+        skipped=skipped,
+        variants=variants,
+        best=best,
+        figures={"placement": _placement(out, results)},
+    )
+    text = overview_text(data)
     elapsed = time.perf_counter() - start
-    generated = _generated(elapsed, args.jobs, computed, len(paper) + len(fine))
+    generated = _generated(elapsed, args.jobs, total - before, total)
     title, rest = text.split("\n", 1)
     with atomic_path(out / "REPORT.md") as tmp:
         tmp.write_text(f"{title}\n\n{generated}\n{rest}")
-    for finding in data.findings:
-        print(f"F{finding.number}: {finding.verdict}")
+    for cell in settings.cells:
+        result = results[cell.name]
+        verdicts = ", ".join(
+            f"F{a.number} {a.verdict} / {b.verdict}"
+            for a, b in zip(result.findings, result.findings_v2, strict=True)
+        )
+        print(f"{cell.title} (v1 / v2): {verdicts}")
     print(f"reproduce: wrote {out / 'REPORT.md'} in {elapsed:.1f} s")
     return 0

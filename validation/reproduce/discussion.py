@@ -116,22 +116,48 @@ def _verdict_counts(findings):
     )
 
 
+def _setup_text(head):
+    """How this cell's head and source space differ from the paper's, (1) and (2)."""
+    if head.conductor_kind == "sphere":
+        conductor = (
+            f"(1) the head model is a {len(head.conductor['layers'])}-shell sphere fitted to "
+            "the electrodes, not a boundary-fitted FEM model of the ICBM152 template; the "
+            "sphere has no anatomy, so the thalamic and cortical sources differ only in depth "
+            "and orientation, and the lead field's depth attenuation is the sphere's"
+        )
+    else:
+        conductor = (
+            "(1) the head model is a three-layer BEM of MNE's sample subject (1280 triangles "
+            "a surface, linear collocation), not the paper's boundary-fitted FEM of the "
+            "ICBM152 template: another subject, another numerical method, no CSF layer"
+        )
+    if head.source_space == "volume":
+        space = (
+            f"(2) the sources sit on a regular volume grid of {head.n_positions} positions "
+            "filling the brain compartment, not 3000 divergence-conforming sources restricted "
+            "to the active compartments, so deep activity can spread to neighbours the "
+            "paper's source space does not have"
+        )
+    else:
+        space = (
+            f"(2) the {head.n_positions} sources lie in cortex and thalamus only, like the "
+            "paper's, but as free-orientation volume positions, not divergence-conforming "
+            "sources"
+        )
+    return f"{conductor}; {space}"
+
+
 def _discussion(data):
     """The Discussion section of REPORT.md, as lines."""
     settings, head = data.settings, data.head
     return [
         "## Discussion",
         "",
-        _verdict_counts(data.findings) + " A finding that does not hold here "
+        "By the v1 rules: "
+        + _verdict_counts(data.findings)
+        + " A finding that does not hold here "
         "is a result about this setup, not a failure to be tuned away. The setup differs from "
-        "the paper's in ways that can move every finding: (1) the head model is a "
-        f"{len(head.sphere['layers'])}-shell sphere fitted to the electrodes, not a "
-        "boundary-fitted FEM model of the ICBM152 template; the sphere has no anatomy, so the "
-        "thalamic and cortical sources differ only in depth and orientation, and the lead "
-        "field's depth attenuation is the sphere's; (2) the sources sit on a regular volume "
-        f"grid of {head.n_positions} positions filling the inner sphere, not 3000 "
-        "divergence-conforming sources restricted to the active compartments, so deep "
-        "activity can spread to neighbours the paper's source space does not have; (3) EP- and "
+        f"the paper's in ways that can move every finding: {_setup_text(head)}; (3) EP- and "
         'PM-SNR use the "gain" amplitude convention, under which PM-SNR is the '
         "prior-predicted data SNR; the toolbox normalizes differently (data scaled by their "
         "maximum, amplitude from mean column norms), so 0 and 20 dB here need not be the "

@@ -21,7 +21,7 @@ from .settings import (
 )
 from .stats import _best, _cell, _fine_means, _setting_label, corner_stats
 
-__all__ = ["make_figures", "plot_fine_map"]
+__all__ = ["make_figures", "plot_fine_map", "plot_source_placement", "save_source_placement"]
 
 
 def _save(fig, path):
@@ -172,3 +172,75 @@ def make_figures(out, runs, settings, fine):
         average=_average_figures(out, runs, settings.seeds),
         fine_map=_fine_figures(out, fine, settings),
     )
+
+
+def plot_source_placement(heads, truth_by_head, title=None):
+    """The paper's Fig. 1 type: the two sources in each head, and their waveforms.
+
+    One row per head: sagittal, coronal and axial views (head coordinates, mm) of the source
+    space (grey), the electrodes (black) and the two dipoles (deep green, superficial red;
+    arrows: orientations); the last panel of the first row shows the waveforms.
+
+    Parameters
+    ----------
+    heads : dict
+        Label -> skf_ref.head.HeadModel.
+    truth_by_head : dict
+        Label -> skf_ref.simulate.Truth placed in that head.
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    views = (("sagittal", 1, 2), ("coronal", 0, 2), ("axial", 0, 1))
+    names = ("x (mm), L → R", "y (mm), P → A", "z (mm), I → S")
+    colours = ("tab:green", "tab:red")
+    fig = Figure(figsize=(14.0, 3.6 * len(heads) + 0.4), layout="constrained")
+    axes = fig.subplots(len(heads), 4, squeeze=False)
+    for row, (label, head) in enumerate(heads.items()):
+        truth = truth_by_head[label]
+        electrodes = np.array([ch["loc"][:3] for ch in head.info["chs"]]) * 1e3
+        positions = head.positions * 1e3
+        for col, (view, h, v) in enumerate(views):
+            ax = axes[row, col]
+            ax.scatter(positions[:, h], positions[:, v], s=1.5, c="0.8", lw=0, rasterized=True)
+            ax.scatter(electrodes[:, h], electrodes[:, v], s=8, c="k", lw=0)
+            for pos, ori, colour in zip(
+                truth.positions * 1e3, truth.orientations, colours, strict=True
+            ):
+                ax.plot(pos[h], pos[v], "o", ms=8, mfc=colour, mec="k")
+                ax.annotate(
+                    "",
+                    xy=(pos[h] + 25 * ori[h], pos[v] + 25 * ori[v]),
+                    xytext=(pos[h], pos[v]),
+                    arrowprops=dict(arrowstyle="->", color=colour, lw=2),
+                )
+            ax.set_aspect("equal")
+            ax.set_xlabel(names[h])
+            ax.set_ylabel(names[v])
+            ax.set_title(f"{label}: {view}")
+        if row > 0:
+            axes[row, 3].axis("off")
+    ax = axes[0, 3]
+    truth = next(iter(truth_by_head.values()))
+    for wave, colour, name in zip(truth.waveforms, colours, ("deep", "superficial"), strict=True):
+        ax.plot(truth.times * 1e3, wave * 1e9, color=colour, lw=2, label=name)
+    ax.set_xlabel("time (ms)")
+    ax.set_ylabel("dipole moment (nAm)")
+    ax.set_title("waveforms")
+    ax.legend()
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def save_source_placement(out, heads, truth_by_head):
+    """Draw :func:`plot_source_placement` into ``out / source_placement.png``; its name."""
+    fig = plot_source_placement(
+        heads, truth_by_head, "Source placement: thalamus (VPL, green) and postcentral (red)"
+    )
+    _save(fig, out / "source_placement.png")
+    return "source_placement.png"

@@ -157,14 +157,89 @@ def _fine_best_text(fine, settings):
     return lines
 
 
-def _header(settings, head, wanted, paper, fine):
-    from skf_ref import simulate
+def head_text(head):
+    """The conductor and the source space of a head, as two list items (Markdown)."""
+    from skf_ref.head import LABELS, SHELL_DEPTH_MM, THALAMUS_RADIUS_MM
 
-    scenario = simulate.p20n20_scenario()
-    layers = ", ".join(
-        f"{layer['rad'] * 1e3:.1f} mm / {layer['sigma']:g} S/m" for layer in head.sphere["layers"]
+    if head.conductor_kind == "sphere":
+        layers = ", ".join(
+            f"{layer['rad'] * 1e3:.1f} mm / {layer['sigma']:g} S/m"
+            for layer in head.conductor["layers"]
+        )
+        conductor = (
+            f'- Head model: MNE spherical model (`make_sphere_model("auto", "auto")`) fitted '
+            f"to the `{MONTAGE}` montage ({head.n_channels} EEG channels, average reference), "
+            f"{len(head.conductor['layers'])} shells (outer radius / conductivity, inside out: "
+            f"{layers})."
+        )
+    else:
+        sigmas = " / ".join(f"{surf['sigma']:g}" for surf in head.conductor["surfs"])
+        conductor = (
+            "- Head model: MNE's linear-collocation BEM (`make_bem_solution`) of MNE's "
+            '"sample" subject (testing dataset, `sample-1280-1280-1280-bem.fif`: inner skull, '
+            f"outer skull, scalp, 1280 triangles each; {sigmas} S/m), the `{MONTAGE}` "
+            f"channels at their MNI 10-05 positions mapped into the subject and moved onto its "
+            f"scalp ({head.n_channels} EEG channels, average reference)."
+        )
+    spacing = f"{head.spacing * 1e3:.1f} mm"
+    columns = f"free orientation ({head.leadfield.shape[1]} lead-field columns)"
+    if head.source_space == "volume":
+        where = "the innermost shell" if head.conductor_kind == "sphere" else "the inner skull"
+        space = (
+            f"- Source space: regular volume grid of {head.n_positions} positions (spacing "
+            f"{spacing}) filling {where} (5 mm margin), {columns}."
+        )
+    elif head.conductor_kind == "sphere":
+        space = (
+            f"- Source space: the sphere's equivalent of cortex + thalamus, {head.n_positions} "
+            f"positions of a {spacing} lattice: a cortex 5-{SHELL_DEPTH_MM[1]:g} mm below the "
+            "brain sphere at or above the fiducial plane, and two balls of the sample "
+            f"subject's thalamus volume (radius {THALAMUS_RADIUS_MM:g} mm) at the MNI "
+            f"centroids of its thalami; {columns}."
+        )
+    else:
+        labels = ", ".join(f"{name} ({label})" for name, label in LABELS.items())
+        space = (
+            f"- Source space: MNE's volume source space on the aseg labels {labels}, "
+            f"{spacing} grid in MRI coordinates, 5 mm inside the inner skull: "
+            f"{head.n_positions} positions, {columns}."
+        )
+    return [conductor, space]
+
+
+def sources_text(head, truth):
+    """Where the two sources are, in MNI and in this head (one list item)."""
+    from skf_ref.simulate import DEEP_MNI_MM, SUPERFICIAL_MNI_MM
+
+    def mm(values):
+        return "(" + ", ".join(f"{v:.1f}" for v in values) + ")"
+
+    parts = []
+    for name, mni, pos, moved in zip(
+        ("deep", "superficial"),
+        (DEEP_MNI_MM, SUPERFICIAL_MNI_MM),
+        truth.positions,
+        truth.moved_mm,
+        strict=True,
+    ):
+        text = f"{name} at MNI {mm(mni)} mm -> head {mm(pos * 1e3)} mm"
+        if moved > 0:
+            text += f" (moved {moved:.1f} mm into its aseg label)"
+        parts.append(text)
+    return (
+        "- Sources: "
+        + "; ".join(parts)
+        + "; the superficial one tangential to "
+        + ("the sphere" if head.conductor_kind == "sphere" else "the nearest inner-skull normal")
+        + ". Hann pulses of 3 ms, 10 nAm, peaks at 1.5 and 2.5 ms; 10 kHz, 0-4 ms (41 "
+        "samples). Data from the exact dipoles' own forward field, not grid columns (no "
+        "inverse crime); white noise at peak SNR 10, 20, 30 dB; the inverse uses the true "
+        'noise level. Priors from EP/PM-SNR with the "gain" amplitude convention '
+        "(docs/model.md §4)."
     )
-    deep, sup = (tuple(float(f"{v:g}") for v in p * 1e3) for p in scenario.positions)
+
+
+def _header(settings, head, wanted, paper, fine, truth):
     versions = ", ".join(f"{k} {v}" for k, v in wanted["versions"].items())
     fine_values = ", ".join(f"{v:g}" for v in settings.fine_values())
     return [
@@ -172,35 +247,28 @@ def _header(settings, head, wanted, paper, fine):
         "",
         f"- Command: `{settings.command()}` (`--out DIR` and `--jobs N` do not change the "
         "results).",
-        f'- Head model: MNE spherical model (`make_sphere_model("auto", "auto")`) fitted '
-        f"to the `{MONTAGE}` montage ({head.n_channels} EEG channels, average reference), "
-        f"{len(head.sphere['layers'])} shells (outer radius / conductivity, inside out: "
-        f"{layers}).",
-        f"- Source space: regular volume grid of {head.n_positions} positions (spacing "
-        f"{head.spacing * 1e3:.1f} mm) in the innermost shell, free orientation "
-        f"({head.leadfield.shape[1]} lead-field columns).",
-        f"- Sources: deep at {deep} mm, superficial (tangential) at {sup} mm; Hann pulses of "
-        "3 ms, 10 nAm, peaks at 1.5 and 2.5 ms; 10 kHz, 0-4 ms (41 samples). Data from the "
-        "exact dipoles' own forward field, not grid columns (no inverse crime); white noise "
-        "at peak SNR 10, 20, 30 dB; the inverse uses the true noise level. Priors from "
-        'EP/PM-SNR with the "gain" amplitude convention (docs/model.md §4).',
+        *head_text(head),
+        sources_text(head, truth),
         f"- Paper grid (`{RESULTS[0]}`, {len(paper)} runs): 10/20/30 dB; EP, PM ∈ {{0, 20}} dB; "
         "exponents 0.5, 1, 1.25, 1.5; smoothers none, rts-standardized, rts-state; seeds "
         f"0..{settings.seeds - 1}.",
         f"- Fine map (`{RESULTS[1]}`, {len(fine)} runs): EP, PM ∈ {{{fine_values}}} dB at "
         f"10/20/30 dB for ({_setting_label(*TUNING)}) and ({_setting_label(*SMOOTHED)}), "
         f"seeds 0..{settings.seeds - 1}.",
-        "- Per-setting aggregates: `summary.csv`; run settings: `settings.json`.",
+        "- Controls (`control_deep.csv`, `control_superficial.csv`): the same runs of F4-F6's "
+        "settings and of every exponent and smoother at EP 20, PM 0 with one source left out "
+        "of the data (same seeds, same noise).",
+        "- Per-setting aggregates: `summary.csv`; run settings: `../settings.json`.",
         f"- Packages: {versions}; skf_ref sources sha256 "
         f"`{wanted['skf_ref_sources_sha256'][:16]}`.",
         "",
     ]
 
 
-def _findings_section(findings):
+def _findings_section(findings, title="## Findings"):
     rows = [[f"F{f.number}", f.paper, f.measured, f"**{f.verdict}**"] for f in findings]
     return [
-        "## Findings",
+        title,
         "",
         *_markdown_table(["Finding", "Paper", "Measured (mean ± SE over seeds)", "Verdict"], rows),
         "",
@@ -238,8 +306,8 @@ def _tables_section(data):
         "are seeds. The last two columns are post-hoc diagnostics, added after the verdicts "
         "were seen and used by no rule: the seeds whose global maximum at the deep (1.5 ms) "
         "and at the superficial (2.5 ms) peak lies below the lowest electrode "
-        f"({(electrode_floor(data.head) - data.head.origin[2]) * 1e3:.0f} mm re. the sphere "
-        "centre; the grid reaches "
+        f"({(electrode_floor(data.head) - data.head.origin[2]) * 1e3:.0f} mm re. the centre of "
+        "the brain compartment's sphere, fitted to the inner skull for a BEM; the grid reaches "
         f"{(data.head.positions[:, 2].min() - data.head.origin[2]) * 1e3:.0f} mm), and the "
         "deep-to-superficial balance, 20 log10 of the deep region's maximum at 1.5 ms over "
         "the superficial region's maximum at 2.5 ms (0 dB: equal peaks, as in the truth).",
@@ -321,6 +389,12 @@ class ReportData:
         From :func:`diagnostics`.
     sensitivity : Sensitivity or None
         From :func:`run_sensitivity` (post hoc; its section follows the discussion).
+    findings_v2 : list of Finding
+        The v2 verdicts (:mod:`validation.reproduce.rules_v2`).
+    truth : skf_ref.simulate.Truth
+        The sources placed in this head.
+    title : str
+        The cell.
     """
 
     settings: Settings
@@ -332,6 +406,9 @@ class ReportData:
     figures: dict
     diagnostics: dict
     sensitivity: object = None
+    findings_v2: list = None
+    truth: object = None
+    title: str = "sphere, volume grid"
 
 
 def _sensitivity_lines(data):
@@ -351,12 +428,17 @@ def report_text(data):
     -------
     str
     """
+    v2 = []
+    if data.findings_v2:
+        v2 = _findings_section(data.findings_v2, "## Findings by the v2 rules")
     lines = [
-        "# SKF reproduction: Prasikala et al. (2025), P20/N20 study",
+        f"# SKF reproduction, {data.title}: Prasikala et al. (2025), P20/N20 study",
         "",
-        *_header(data.settings, data.head, data.manifest, data.paper, data.fine),
-        RULES_TEXT,
-        *_findings_section(data.findings),
+        *_header(data.settings, data.head, data.manifest, data.paper, data.fine, data.truth),
+        "The decision rules (v1 and v2) are stated in `../REPORT.md`.",
+        "",
+        *_findings_section(data.findings, "## Findings by the v1 rules"),
+        *v2,
         *_discussion(data),
         *_sensitivity_lines(data),
         *_tables_section(data),

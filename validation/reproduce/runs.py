@@ -140,23 +140,15 @@ class Diagnostic:
     balance: tuple
 
 
-def _diagnose(runs, amps):
-    from skf_ref.regions import region_time_course
-
-    floor, heights = electrode_floor(runs.head), runs.head.positions[:, 2]
-    i_deep, i_sup = runs.truth.peak_indices
+def _diagnose(rows, floor):
+    """A setting's :class:`Diagnostic` from its sweep rows (heights and region maxima)."""
     low = tuple(
-        sum(int(heights[amp[:, k].argmax()] < floor) for amp in amps) for k in (i_deep, i_sup)
+        int((rows[f"max_height_at_{peak}_peak"] < floor).sum()) for peak in ("deep", "superficial")
     )
-    balance = [
-        20.0
-        * np.log10(
-            region_time_course(amp, runs.head.positions, runs.truth.positions[0])[i_deep]
-            / region_time_course(amp, runs.head.positions, runs.truth.positions[1])[i_sup]
-        )
-        for amp in amps
-    ]
-    return Diagnostic(low=low, n=len(amps), balance=_mean_se(balance)[:2])
+    balance = 20.0 * np.log10(
+        rows["deep_max_at_deep_peak"] / rows["superficial_max_at_superficial_peak"]
+    )
+    return Diagnostic(low=low, n=len(rows), balance=_mean_se(balance)[:2])
 
 
 def diagnostics(runs, seeds):
@@ -165,11 +157,14 @@ def diagnostics(runs, seeds):
     Added after the verdicts were seen, to explain them; no rule uses them. Where the
     global maximum lies (the volume grid fills the whole inner sphere, also below the
     electrode cap, where the lead field is weak and an exponent above 0.5 amplifies the
-    estimate most), and the deep-to-superficial peak balance of the region maxima.
+    estimate most), and the deep-to-superficial peak balance of the region maxima. Read
+    from the sweep rows (the height of each run's maximum and its region maxima at the two
+    peaks), so nothing is recomputed.
 
     Parameters
     ----------
     runs : CheckedRuns
+        Its head and table.
     seeds : int
 
     Returns
@@ -177,8 +172,9 @@ def diagnostics(runs, seeds):
     dict
         (snr_db, exponent, smoother) -> :class:`Diagnostic`.
     """
+    floor = electrode_floor(runs.head)
     out = {}
     for snr, exponent, smoother in product(NOISE_LEVELS, EXPONENTS, SMOOTHERS):
-        amps = runs.amplitudes(snr, *TUNED_PRIOR, exponent, smoother, range(seeds))
-        out[snr, exponent, smoother] = _diagnose(runs, amps)
+        rows = _select(runs.table, snr, *TUNED_PRIOR, exponent, smoother)
+        out[snr, exponent, smoother] = _diagnose(rows[rows["seed"] < seeds], floor)
     return out

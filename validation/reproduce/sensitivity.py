@@ -47,16 +47,13 @@ def crop_head(head):
     )
 
 
-def _run_level(head, snr, seeds):
-    """The F5/F6 runs at one noise level, through :func:`skf_ref.sweep.run_on_head`."""
-    from skf_ref.sweep import run_on_head
-
-    runs = [
+def _runs(seeds):
+    """The F5/F6 runs of one noise level: (exponent, smoother, seed)."""
+    return [
         (exponent, smoother, seed)
         for seed in range(seeds)
         for exponent, smoother in product(EXPONENTS, (None, SMOOTHED[1]))
     ]
-    return run_on_head(head, snr, *TUNED_PRIOR, runs)
 
 
 @dataclass(frozen=True)
@@ -82,7 +79,7 @@ class Sensitivity:
     findings: list
 
 
-def run_sensitivity(head, seeds, out):
+def run_sensitivity(head, seeds, out, n_jobs=1):
     """Run F5 and F6 on the cropped grid, write ``out / sensitivity.csv``, judge them.
 
     Parameters
@@ -92,16 +89,23 @@ def run_sensitivity(head, seeds, out):
     seeds : int
         Seeds 0 .. seeds - 1, as in the primary analysis.
     out : Path
+    n_jobs : int
+        joblib workers, one noise level each.
 
     Returns
     -------
     Sensitivity
     """
+    from joblib import Parallel, delayed
+
     from skf_ref.files import atomic_path
-    from skf_ref.sweep import KEY
+    from skf_ref.sweep import KEY, run_on_head
 
     cropped = crop_head(head)
-    rows = [row for snr in NOISE_LEVELS for row in _run_level(cropped, snr, seeds)]
+    levels = Parallel(n_jobs=n_jobs)(
+        delayed(run_on_head)(cropped, snr, *TUNED_PRIOR, _runs(seeds)) for snr in NOISE_LEVELS
+    )
+    rows = [row for level in levels for row in level]
     table = pd.DataFrame(rows).sort_values(list(KEY), kind="stable", ignore_index=True)
     with atomic_path(out / SENSITIVITY) as tmp:
         table.to_csv(tmp, index=False, lineterminator="\n")

@@ -15,6 +15,9 @@ from pathlib import Path
 from skf_ref.provenance import blas_threads, package_versions
 
 __all__ = [
+    "BEST_CELL_ORDER",
+    "CELLS",
+    "CONTROLS",
     "CORNERS",
     "DEFAULT_OUT",
     "EXPONENTS",
@@ -33,7 +36,9 @@ __all__ = [
     "TIE_MM",
     "TUNED_PRIOR",
     "TUNING",
+    "VARIANTS",
     "VERDICTS",
+    "Cell",
     "Settings",
     "manifest",
 ]
@@ -66,6 +71,47 @@ DEFAULT_OUT = Path(__file__).resolve().parent.parent / "report"
 QUICK_OUT = Path("reproduce-quick")
 RESULTS = ("paper_grid.csv", "fine_grid.csv")
 MANIFEST = "settings.json"
+#: The controls: data from one source only, with the noise of both (file name per source).
+CONTROLS = {"deep": "control_deep.csv", "superficial": "control_superficial.csv"}
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One cell of the 2 x 2 design: a conductor and a source space."""
+
+    conductor: str
+    source_space: str
+
+    @property
+    def name(self):
+        """Folder name, e.g. ``"bem-anatomical"``."""
+        return f"{self.conductor}-{self.source_space}"
+
+    @property
+    def title(self):
+        """E.g. ``"BEM, cortex + thalamus"``."""
+        conductor = {"sphere": "sphere", "bem": "BEM"}[self.conductor]
+        space = {"volume": "volume grid", "anatomical": "cortex + thalamus"}[self.source_space]
+        return f"{conductor}, {space}"
+
+    @property
+    def realistic(self):
+        """Whether the cell needs MNE's testing dataset."""
+        return self.conductor == "bem"
+
+
+#: The 2 x 2 design, sphere cells first (they need no dataset).
+CELLS = tuple(Cell(c, s) for c in ("sphere", "bem") for s in ("volume", "anatomical"))
+#: The deviations' variants (fixed before the runs), run on the best cell: name ->
+#: (what changes, keyword arguments of the data, the tuning exponent).
+VARIANTS = {
+    "blackman-harris": ("Blackman-Harris pulse windows", dict(window="blackman-harris"), None),
+    "grid-columns": ("data from the nearest grid columns", dict(forward="grid"), None),
+    "tuning-exponent-1.25": ("exponent 1.25 in the tuning stage (F1-F4)", {}, 1.25),
+}
+#: Which cell is best (fixed before the runs): the most v2 findings reproduced (a partly
+#: counts half); ties go to the cell nearest the paper's setup, in this order.
+BEST_CELL_ORDER = ("bem-anatomical", "bem-volume", "sphere-anatomical", "sphere-volume")
 
 
 @dataclass(frozen=True)
@@ -82,12 +128,50 @@ class Settings:
         Step (dB) of the fine EP x PM map over -20 .. 40 dB; must divide 60.
     quick : bool
         Whether the ``--quick`` preset was asked (for the command line in the report).
+    realistic : bool
+        Whether the BEM cells run (they need MNE's testing dataset).
     """
 
     seeds: int = 10
     n_positions: int = 3000
     fine_step: float = 10.0
     quick: bool = False
+    realistic: bool = True
+
+    @property
+    def cells(self):
+        """The cells this run computes."""
+        return tuple(cell for cell in CELLS if self.realistic or not cell.realistic)
+
+    def control_grids(self):
+        """The controls' grids: F4's tuning corners, and every exponent and smoother at the
+        tuned priors (F5, F6 and the lone-source question), at every noise level."""
+        seeds = list(range(self.seeds))
+        return [
+            dict(
+                snr_db=list(NOISE_LEVELS),
+                ep_snr_db=[0.0, 20.0],
+                pm_snr_db=[0.0, 20.0],
+                exponent=[TUNING[0]],
+                smoother=[None],
+                seed=seeds,
+            ),
+            dict(
+                snr_db=list(NOISE_LEVELS),
+                ep_snr_db=[TUNED_PRIOR[0]],
+                pm_snr_db=[TUNED_PRIOR[1]],
+                exponent=list(EXPONENTS),
+                smoother=[None if s == "none" else s for s in SMOOTHERS],
+                seed=seeds,
+            ),
+        ]
+
+    def rule_grids(self, tuning_exponent=None):
+        """Only the settings the rules read (the variants run these)."""
+        corners, tuned = self.control_grids()
+        if tuning_exponent is not None:
+            corners = dict(corners, exponent=[tuning_exponent])
+        return [corners, dict(tuned, smoother=[None, SMOOTHED[1]])]
 
     def paper_grid(self):
         """The paper's grid with this run's seeds (:func:`skf_ref.sweep.paper_grid`)."""
@@ -128,11 +212,13 @@ class Settings:
             parts.append(f"--n-positions {self.n_positions}")
         if self.fine_step != preset.fine_step:
             parts.append(f"--fine-step {self.fine_step:g}")
+        if self.realistic:
+            parts.append("--mne-testing-data DIR")
         return " ".join(parts)
 
 
 FULL = Settings()
-QUICK = Settings(seeds=3, n_positions=1000, fine_step=20.0, quick=True)
+QUICK = Settings(seeds=2, n_positions=1000, fine_step=60.0, quick=True)
 
 
 def _source_digest():
@@ -152,20 +238,33 @@ def _versions():
     return {"python": platform.python_version(), **package_versions(packages)}
 
 
-def manifest(settings):
+def _dataset_digest(testing_data):
+    from skf_ref.head import TESTING_FILES, input_digest
+
+    files = {name: Path(testing_data) / rel for name, rel in TESTING_FILES.items()}
+    return input_digest(files, {})
+
+
+def manifest(settings, testing_data=None):
     """Everything the results files depend on, as a JSON-ready dict.
 
     Parameters
     ----------
     settings : Settings
+    testing_data : path-like or None
+        MNE's testing dataset (its files' digest is recorded, not its location).
 
     Returns
     -------
     dict
     """
     return dict(
+        cells=[cell.name for cell in settings.cells],
         paper_grid=settings.paper_grid(),
         fine_grids=settings.fine_grids(),
+        control_grids=settings.control_grids(),
+        variants={name: [what, data, exp] for name, (what, data, exp) in VARIANTS.items()},
+        testing_data_sha256=None if testing_data is None else _dataset_digest(testing_data),
         n_positions=settings.n_positions,
         montage=MONTAGE,
         versions=_versions(),
