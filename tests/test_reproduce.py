@@ -28,15 +28,19 @@ from validation.reproduce.settings import (
     CONTROLS,
     DEFAULT_OUT,
     EXPONENTS,
+    FINE_RANGE,
     FULL,
     MANIFEST,
     NOISE_LEVELS,
     QUICK_OUT,
     RESULTS,
+    STAGES,
     TUNED_PRIOR,
+    TUNING,
     VERDICTS,
     Settings,
 )
+from validation.reproduce.tuned import TUNED, compare_tuned, paper_cells
 
 # What the issue asks the tests to run: the quick report; without MNE's testing dataset (the
 # tests never read it) only the sphere cells run and the BEM cells are marked "not run".
@@ -193,7 +197,7 @@ class TestReport:
             assert (a / "CELL.md").read_text() == (b / "CELL.md").read_text()
             for name in FIGURE_LINK.findall((a / "CELL.md").read_text()):
                 assert (a / name).read_bytes() == (b / name).read_bytes(), name
-            names = ["paper_grid.csv", "fine_grid.csv", "summary.csv", *CONTROLS.values()]
+            names = ["paper_grid.csv", "fine_grid.csv", "summary.csv", *CONTROLS.values(), TUNED]
             if cell.name == "sphere-volume":
                 names.append(SENSITIVITY)
             for name in names:
@@ -219,6 +223,22 @@ class TestReport:
                 assert [row.split("|")[1].strip() for row in rows] == [
                     f"F{i}" for i in range(1, 7)
                 ]
+
+    def test_priors_chosen_by_the_data(self, reports):
+        text = (reports[0][0] / "REPORT.md").read_text()
+        section = _section(text, "## Priors chosen by the data")
+        rows = [line for line in section.splitlines() if line.startswith("| sphere")]
+        assert len(rows) == len(SPHERE_CELLS) * len(NOISE_LEVELS) * len(STAGES)
+        met = sum(row.rstrip(" |").endswith("| met") for row in rows)
+        assert f"Met in {met} of {len(rows)} settings" in section
+        for cell in SPHERE_CELLS:
+            table = pd.read_csv(reports[0][0] / cell.name / TUNED)
+            assert len(table) == len(NOISE_LEVELS) * len(STAGES) * QUICK_SEEDS
+            # one choice per noise level and seed, shared by both stages
+            choices = table.groupby(["snr_db", "seed"])[["ep_snr_db", "pm_snr_db"]].nunique()
+            assert (choices == 1).all().all()
+            assert table["ep_snr_db"].between(*FINE_RANGE).all()
+            assert table["pm_snr_db"].between(*FINE_RANGE).all()
 
     def test_rerun_reuses_rows_and_gives_the_same_report(self, reports, tmp_path):
         out = reports[0][1]
@@ -579,3 +599,73 @@ def test_blas_order_does_not_change_the_outputs(monkeypatch):
         "openblas-0.3.30 openblas-0.3.31"
     )
     assert cells._sorted_words("none") == "none"
+
+
+# --------------------------------------------------------------------------- tuned priors
+
+
+def _stage_rows(errors, tuned=False, seeds=4):
+    """Rows at every noise level and stage: ``errors`` maps (EP, PM) -> score (mm) for
+    the fixed cells, or gives the tuned score (a number) with per-seed priors."""
+    rows = []
+    for snr in NOISE_LEVELS:
+        for _, (exponent, smoother) in STAGES:
+            cells = {(3.0 + snr, -20.0): errors} if tuned else errors
+            for (ep, pm), score in cells.items():
+                for seed in range(seeds):
+                    error = score + (seed - 1.5)  # SE over 4 seeds: sqrt(5/3) / 2
+                    rows.append(
+                        dict(
+                            snr_db=snr,
+                            ep_snr_db=ep + 0.1 * seed * tuned,
+                            pm_snr_db=pm,
+                            exponent=exponent,
+                            smoother=smoother,
+                            seed=seed,
+                            deep_error_mm=error,
+                            superficial_error_mm=error,
+                            deep_corr=0.5,
+                            superficial_corr=0.7,
+                            separation=seed < 2,
+                        )
+                    )
+    return pd.DataFrame(rows)
+
+
+class TestTunedComparison:
+    fixed = _stage_rows(
+        {(0.0, 0.0): 10.0, (20.0, 0.0): 12.0, (0.0, 20.0): 20.0, (20.0, 20.0): 30.0}
+    )
+
+    def test_the_best_cell_is_the_lowest_mean_and_the_paper_cells_follow_the_paper(self):
+        out = compare_tuned(_stage_rows(10.0, tuned=True), self.fixed, seeds=4)
+        assert len(out) == len(NOISE_LEVELS) * len(STAGES)
+        for comparison in out:
+            assert comparison.best.priors == "(EP 0, PM 0)"
+            assert [p.priors for p in comparison.paper] == [
+                f"(EP {e:g}, PM {p:g})" for e, p in paper_cells(comparison.snr, comparison.stage)
+            ]
+        assert paper_cells(30.0, TUNING) == [(20.0, 0.0), (0.0, 20.0)]
+        assert paper_cells(10.0, TUNING) == [(0.0, 0.0)]
+
+    def test_within_one_standard_error_meets_the_target(self):
+        se = np.sqrt(5 / 3) / 2
+        out = compare_tuned(_stage_rows(10.0 + 0.99 * se, tuned=True), self.fixed, seeds=4)
+        assert all(c.met for c in out)
+        assert out[0].tuned.score[0] == pytest.approx(10.0 + 0.99 * se)
+        assert out[0].tuned.separation == 0.5 and out[0].tuned.correlation == pytest.approx(0.6)
+
+    def test_beyond_one_standard_error_misses_it(self):
+        se = np.sqrt(5 / 3) / 2
+        out = compare_tuned(_stage_rows(10.0 + 1.01 * se, tuned=True), self.fixed, seeds=4)
+        assert not any(c.met for c in out)
+
+    def test_a_lower_separation_rate_misses_it(self):
+        tuned = _stage_rows(10.0, tuned=True)
+        tuned["separation"] = tuned["seed"] < 1  # 25 % against the best cell's 50 %
+        assert not any(c.met for c in compare_tuned(tuned, self.fixed, seeds=4))
+
+    def test_choices_on_the_range_ends_are_counted(self):
+        out = compare_tuned(_stage_rows(10.0, tuned=True), self.fixed, seeds=4)
+        assert all(c.edges == {"ep_snr_db": 0, "pm_snr_db": 4} for c in out)
+        assert out[0].tuned.priors.endswith("(13.0 to 13.3), PM -20.0 (-20.0 to -20.0)")

@@ -17,6 +17,7 @@ import pandas as pd
 from skf_ref.files import atomic_path
 
 from .settings import BEST_CELL_ORDER, CONTROLS, MONTAGE, RESULTS, TUNING, VARIANTS, VERDICTS
+from .tuned import TUNED, compare_tuned, run_tuned
 
 __all__ = [
     "CellResult",
@@ -44,6 +45,7 @@ def result_files(settings):
     """Every results file of a run, relative to the report folder."""
     names = [f"{cell.name}/{name}" for cell in settings.cells for name in RESULTS]
     names += [f"{cell.name}/{name}" for cell in settings.cells for name in CONTROLS.values()]
+    names += [f"{cell.name}/{TUNED}" for cell in settings.cells]
     names += [
         f"variants/{variant}/{name}"
         for variant in VARIANTS
@@ -103,6 +105,8 @@ class CellResult:
     sensitivity : Sensitivity or None
     truth : skf_ref.simulate.Truth
         The sources placed in this head.
+    tuned : list of TunedComparison
+        The priors chosen by the data beside the fixed cells (``tuned.py``).
     """
 
     cell: object
@@ -116,10 +120,11 @@ class CellResult:
     diagnostics: dict = field(default_factory=dict)
     sensitivity: object = None
     truth: object = None
+    tuned: list = field(default_factory=list)
 
 
 def run_cell_sweeps(cell, settings, out, n_jobs, progress, testing_data=None, cache_dir=None):
-    """Run (or resume) a cell's paper grid, fine map and controls.
+    """Run (or resume) a cell's paper grid, fine map, controls and tuned priors.
 
     Returns
     -------
@@ -145,9 +150,11 @@ def run_cell_sweeps(cell, settings, out, n_jobs, progress, testing_data=None, ca
     }
     from skf_ref.simulate import p20n20_scenario
 
+    tuned = run_tuned(kwargs, settings.seeds, folder / TUNED, n_jobs)
     head = make_head(**dict(kwargs, montage=MONTAGE))
     truth = p20n20_scenario().dipoles(head)
-    return CellResult(cell, head, paper, fine, controls, truth=truth)
+    comparisons = compare_tuned(tuned, pd.concat([fine, paper]), settings.seeds)
+    return CellResult(cell, head, paper, fine, controls, truth=truth, tuned=comparisons)
 
 
 def _score(findings):
