@@ -99,7 +99,7 @@ def plot_time_courses(reconstruction, head, truth, ax=None, title=None, path=Non
     ax.set_ylim(top=1.4)  # room for the legend above the curves
     ax.legend(fontsize="small", loc="upper center", ncols=2, framealpha=0.9)
     if title is not None:
-        ax.set_title(title)
+        ax.set_title(title, fontsize="medium")  # a two-line setting fits the 5-inch figure
     return _finish(fig, path)
 
 

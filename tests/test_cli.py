@@ -16,7 +16,7 @@ import skf_ref
 from skf_ref.cli import main
 
 # a small sphere head model: seconds, not a minute (and never MNE's testing dataset)
-SMALL = ["--positions", "500", "--quiet", "--head", "sphere"]
+SMALL = ["--positions", "500", "--quiet", "--head", "sphere", "--source-space", "volume"]
 ENV = os.environ | {"PYTHONPATH": str(Path(__file__).resolve().parents[1])}
 
 
@@ -83,9 +83,13 @@ def test_demo_says_which_head_it_used(tmp_path, monkeypatch, capsys):
     import mne
 
     monkeypatch.setattr(mne.datasets.testing, "data_path", lambda **kwargs: tmp_path / "none")
-    assert main(["demo", "--out", str(tmp_path), "--positions", "500", "--quiet"]) == 0
+    assert main(["demo", "--out", str(tmp_path), "--quiet", "--smoother", "none"]) == 0
     printed = capsys.readouterr().out
     assert "head: sphere" in printed and "--mne-testing-data DIR" in printed
+    settings = json.loads((tmp_path / "settings.json").read_text())
+    # without the dataset: the sphere, with the paper's kind of source space by default
+    assert settings["head_kind"] == "sphere" and settings["source_space"] == "anatomical"
+    assert settings["positions_requested"] is None
     assert main(["demo", "--out", str(tmp_path), "--head", "realistic", "--quiet"]) == 2
     assert "--head realistic needs MNE's testing dataset" in capsys.readouterr().err
 
@@ -118,6 +122,7 @@ def test_every_option_shows_its_default(command, capsys):
         (["demo", "--montage", "nope"], "montage"),
         (["demo", "--positions", "10"], "argument --positions: must be >= 420, got 10"),
         (["demo", "--positions", "2.5"], "argument --positions: must be an integer"),
+        (["demo", "--positions", "500"], "--positions: sizes the sphere's volume grid only"),
         (["demo", "--seed", "-1"], "argument --seed: must be >= 0, got -1"),
         (["demo", "--smoother", "kalman"], "invalid choice"),
         (["demo", "--mne-testing-data", "."], "--mne-testing-data: testing_data must be MNE's"),

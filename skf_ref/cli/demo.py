@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import memory
+from ..checks import InputError
 from ..files import atomic_path
 from ._args import add_skf_options, db, integer, progress, report_tuning
 
@@ -27,7 +28,8 @@ def add_parser(subparsers):
         "produced them (settings.json) to the output folder. The head is the realistic one "
         "(a three-layer BEM of MNE's 'sample' subject, cortex + thalamus source space) when "
         "MNE's testing dataset is at hand (--mne-testing-data DIR, or found by MNE without "
-        "downloading), the spherical one (a volume grid) otherwise; the demo says which.",
+        "downloading), the spherical one otherwise; the demo says which. The source space is "
+        "cortex + thalamus by default, in both heads, like the paper's.",
     )
     demo.add_argument("--out", type=Path, default=Path("skf-demo"), help="output folder")
     demo.add_argument("--snr-db", type=db(), default=30.0, help="data peak SNR (dB)")
@@ -38,10 +40,16 @@ def add_parser(subparsers):
         smoother_help="smoother of the second reconstruction ('none': the filter only)",
     )
     demo.add_argument(
+        "--source-space",
+        choices=("anatomical", "volume"),
+        default="anatomical",
+        help="'anatomical': cortex + thalamus; 'volume': a grid filling the brain compartment",
+    )
+    demo.add_argument(
         "--positions",
         type=integer(minimum=420),
-        default=3000,
-        help="source positions requested of the sphere's grid (it holds the nearest count it can)",
+        help="source positions requested of the sphere's volume grid, which holds the "
+        "nearest count it can (default: 3000 with --source-space volume)",
     )
     demo.add_argument(
         "--head",
@@ -110,7 +118,7 @@ def _settings(args, head, sim, theta0, q):
         "ep_snr_db": args.ep_snr_db,
         "exponent": args.exponent,
         "smoother": None if args.smoother == "none" else args.smoother,
-        "positions_requested": args.positions if head.conductor_kind == "sphere" else None,
+        "positions_requested": args.positions,
         "n_positions": head.n_positions,
         "montage": args.montage,
         "seed": args.seed,
@@ -135,7 +143,6 @@ def _setting_line(args):
 
 def _testing_data(args):
     """MNE's testing dataset for the realistic head, or None for the sphere."""
-    from ..checks import InputError
     from ..head import find_testing_data
 
     if args.head == "sphere":
@@ -176,16 +183,24 @@ def run(args):
 
     head_model.check_montage(args.montage)
     testing = _testing_data(args)
-    if testing is None:
+    if testing is None and args.source_space == "volume":
+        args.positions = 3000 if args.positions is None else args.positions
         outputs = 3 * memory.spectral_memory(3 * args.positions, 64, 41)
         head_model.check_size(args.positions, args.montage, extra=outputs, name="--positions")
+    elif args.positions is not None:
+        raise InputError(
+            "--positions: sizes the sphere's volume grid only (--head sphere --source-space "
+            "volume); the other source spaces have fixed spacings"
+        )
     with progress(args, "head model"):
-        if testing is None:
-            head = head_model.make_head_model(args.positions, args.montage)
-        else:
-            head = head_model.make_realistic_head(
-                testing, "anatomical", args.montage, cache_dir=args.cache_dir
-            )
+        head = head_model.make_head(
+            "sphere" if testing is None else "bem",
+            args.source_space,
+            n_positions=args.positions or 3000,
+            montage=args.montage,
+            testing_data=testing,
+            cache_dir=args.cache_dir,
+        )
     print(f"head: {_head_line(head, testing, args)}")
     scenario = simulate.p20n20_scenario()
     sim = simulate.simulate(head, scenario, args.snr_db, args.seed)
