@@ -248,7 +248,11 @@ class Reconstruction:
         return to_dask(self, name=name, chunks=chunks)
 
     def _check_finite(self, name, value):
-        if not np.isfinite(value).all():
+        # a sum is finite only if every term is (or it overflowed): one cheap pass, and the
+        # elementwise test only to confirm
+        with np.errstate(invalid="ignore", over="ignore"):
+            total = np.sum(value)
+        if not np.isfinite(total) and not np.isfinite(value).all():
             cause = self._diagnose() if self._diagnose is not None else "scales out of range"
             raise InputError(f"the reconstruction's {name} is not finite: {cause}")
 

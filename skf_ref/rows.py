@@ -13,9 +13,10 @@ them out transposed.
 """
 
 import numpy as np
+from scipy.linalg import blas
 
 from . import memory
-from .singular import backward
+from .singular import backward, map_threads
 from .standardization import standardization_weights, standardize
 
 __all__ = ["BLOCK_BYTES", "NAMES", "SpectralRows"]
@@ -103,23 +104,31 @@ class SpectralRows:
         return out
 
     def _smooth(self, columns, out, delta):
-        """s = h + V delta (spectral module docstring) over one block of z_{t|t}, in place."""
+        """s = h + V delta (spectral module docstring) over z_{t|t} of ``columns``, in place.
+
+        The backward recursion is one scalar gain per step for every row: over a whole
+        (T, n) array it costs T vector operations, over blocks T per block.
+        """
         gamma, beta, a = self.gains
-        backward(out, beta[:, None], a, overwrite=True)  # h: scalar gains, row by row
-        out += delta @ self.V[columns].T
+        backward(out, beta, a, overwrite=True)  # h: scalar gains, row by row
+        _add_product(out, delta, self.V[columns])
 
     def projection(self, columns):
         """These rows' share of ``zeta = V^T z_{t|t}``: (n_times, r); the shares add up."""
         k = len(range(*columns.indices(self.n_sources)))
-        out, work = np.empty((self.n_times, k)), np.empty((self.n_times, k))
+        return self._projected(columns, np.empty((self.n_times, k)))
+
+    def _projected(self, columns, out):
+        """:meth:`projection`, with ``z_{t|t}`` of these rows left in ``out``."""
+        work = np.empty(out.shape)
         return self._standardized(self.u, columns, out, work) @ self.V[columns]
 
     def correction(self):
         """delta (T, r) of the spectral module docstring, by one pass over every block."""
         if self._delta is None:
             zeta = np.zeros_like(self.u)
-            for columns, out, work in self._blocks():
-                zeta += self._standardized(self.u, columns, out, work) @ self.V[columns]
+            for share in map_threads(self.projection, self._column_blocks()):
+                zeta += share  # in block order, whatever the number of threads
             self._delta = self.correction_from(zeta)
         return self._delta
 
@@ -133,43 +142,62 @@ class SpectralRows:
             delta[t] = gamma[t] * delta[t + 1] + (gamma[t] - beta[t]) * (chi[t + 1] - a * zeta[t])
         return delta
 
-    def _blocks(self, rows=None):
-        """Column slices of bounded size, with reused (T, k) buffers."""
-        step = max(1, rows or BLOCK_BYTES // (8 * self.n_times))
-        size = self.n_times * min(step, self.n_sources)
-        out, work = np.empty(size), np.empty(size)
+    def _column_blocks(self):
+        """Column slices of about :data:`BLOCK_BYTES` of (T, k) output each."""
+        step = max(1, BLOCK_BYTES // (8 * self.n_times))
         for start in range(0, self.n_sources, step):
-            columns = slice(start, min(start + step, self.n_sources))
-            shape = (self.n_times, columns.stop - start)
-            size = shape[0] * shape[1]
-            yield columns, out[:size].reshape(shape), work[:size].reshape(shape)
+            yield slice(start, min(start + step, self.n_sources))
 
     # --- a whole output in memory -------------------------------------------------------
 
     def array(self, name):
-        """Output ``name`` whole, (n_times, n_sources), filled block by block.
+        """Output ``name`` whole, (n_times, n_sources), filled block by block in threads.
 
         ``"z"`` of ``"rts-standardized"`` is filled with ``z_{t|t}`` and the projection
-        ``zeta`` in one pass, then smoothed block by block in place: one (T, n) array.
+        ``zeta`` in one pass, then smoothed in place: one (T, n) array.
         """
         n, T = self.n_sources, self.n_times
         memory.require(8 * n * T, f"a ({n}, {T}) output array")
         result = np.empty((T, n))
-        two_passes = name == "z" and self.smoother == "rts-standardized" and self._delta is None
-        if two_passes:
+        if name == "z" and self.smoother == "rts-standardized" and self._delta is None:
             zeta = np.zeros_like(self.u)
-            for columns, _, work in self._blocks():
-                view = result[:, columns]
-                zeta += self._standardized(self.u, columns, view, work) @ self.V[columns]
+
+            def fill(columns):
+                return self._projected(columns, result[:, columns])
+
+            for share in map_threads(fill, self._column_blocks()):
+                zeta += share  # in block order, whatever the number of threads
             self._delta = self.correction_from(zeta)
-            for columns, _, _ in self._blocks():
-                view = result[:, columns]
-                self._smooth(columns, view, self._delta)
+            self._smooth(slice(None), result, self._delta)  # whole rows: T steps, not T a block
             return result
-        for columns, _, work in self._blocks():
-            self.block(name, columns, out=result[:, columns], work=work)
+
+        def fill(columns):
+            self.block(name, columns, out=result[:, columns])
+
+        for _ in map_threads(fill, self._column_blocks()):
+            pass
         return result
 
     def min_raw_weight(self):
         """The smallest raw weight over every source and step (only to explain a failure)."""
-        return min(np.min(self._raw(columns, out)) for columns, out, _ in self._blocks())
+        return min(
+            np.min(self._raw(columns, np.empty((self.n_times, columns.stop - columns.start))))
+            for columns in self._column_blocks()
+        )
+
+
+def _add_product(out, delta, V_rows):
+    """``out += delta @ V_rows.T`` ((T, k) += (T, r) (r, k)) without a (T, k) temporary.
+
+    BLAS gemm with beta = 1 accumulates into ``out`` where it is C-contiguous (its
+    transpose is the column-major (k, T) matrix gemm writes); elsewhere numpy.
+    """
+    if not out.flags.c_contiguous:
+        out += delta @ V_rows.T
+        return out
+    # out^T (k, T) += V_rows (k, r) @ delta^T (r, T), every operand column-major
+    a, trans_a = (V_rows.T, 1) if V_rows.flags.c_contiguous else (V_rows, 0)
+    blas.dgemm(
+        1.0, a, np.ascontiguousarray(delta).T, beta=1.0, c=out.T, trans_a=trans_a, overwrite_c=1
+    )
+    return out

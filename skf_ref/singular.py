@@ -11,7 +11,10 @@ priors they run K filters at once, which is how :meth:`SpectralBasis.log_likelih
 evaluates a whole grid of priors (docs/model.md §4) for about the cost of one filter.
 """
 
+import collections
 import functools
+import itertools
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from scipy import linalg
@@ -25,18 +28,16 @@ __all__ = [
     "filter_means",
     "log_det_innovations",
     "log_likelihood",
+    "map_threads",
     "rts_gains",
     "thin_svd",
     "whitener",
 ]
 
 _LOG_2PI = np.log(2 * np.pi)
-# Lead fields below this many entries are decomposed on one BLAS thread. On the project's
-# 2-core machine (validation/bench.py, --blas-threads) two threads sped the SVD of a
-# 64 x 9048 lead field up 1.24x when the machine was idle and slowed it 2-25x when another
-# process held a core; from 128 x 150 000 on, two threads gained 1.4x idle and lost 2x
-# loaded, so larger problems keep the library's default.
-_THREADED_SVD_ENTRIES = 2_000_000
+# Rows of L~^T in one block of the SVD's first stage: about 2 MiB, so that a block's QR
+# runs in cache.
+_SVD_BLOCK_BYTES = 2 * 2**20
 # Priors evaluated at once by SpectralBasis.log_likelihood: bounds its (T, K, r) arrays.
 _PRIORS_AT_ONCE = 16
 
@@ -46,6 +47,47 @@ def _blas():
     from threadpoolctl import ThreadpoolController
 
     return ThreadpoolController()
+
+
+def map_threads(func, items):
+    """``func`` over ``items`` in worker threads, the results in the order of ``items``.
+
+    One worker per BLAS thread this process may use (threadpoolctl: a caller that limits
+    BLAS, as joblib's workers do, limits this too), each on one BLAS thread, so the
+    elementwise work between BLAS calls runs on every core as well. Results are consumed
+    in order, at most two per worker ahead, so sums over them are the same whatever the
+    number of workers, and memory stays bounded.
+
+    Parameters
+    ----------
+    func : callable
+        Must release the GIL for most of its time (numpy, BLAS, LAPACK do).
+    items : iterable
+
+    Yields
+    ------
+    object
+        ``func(item)`` for each item, in order.
+
+    Examples
+    --------
+    >>> list(map_threads(lambda k: k * k, range(5)))
+    [0, 1, 4, 9, 16]
+    """
+    controller = _blas().select(user_api="blas")
+    workers = max((entry["num_threads"] for entry in controller.info()), default=1)
+    if workers < 2:
+        yield from map(func, items)
+        return
+    items = iter(items)
+    with controller.limit(limits=1), ThreadPoolExecutor(workers) as pool:
+        pending = collections.deque(
+            pool.submit(func, i) for i in itertools.islice(items, 2 * workers)
+        )
+        while pending:
+            result = pending.popleft().result()
+            pending.extend(pool.submit(func, i) for i in itertools.islice(items, 1))
+            yield result
 
 
 def whitener(R):
@@ -79,10 +121,30 @@ def thin_svd(Lw):
     s : ndarray, shape (r,)
     V : ndarray, shape (n_sources, r)
     """
-    # SVD of the transpose: (n, m) in C order is LAPACK's column-major (m, n), no copy.
-    threads = 1 if Lw.size < _THREADED_SVD_ENTRIES else None
-    with _blas().limit(limits=threads, user_api="blas"):
-        V, s, Ut = linalg.svd(Lw.T, full_matrices=False, lapack_driver="gesdd")
+    # Tall-skinny QR of A = L~^T (n, m): the QR of each block of rows, A_i = Q_i R_i, then
+    # of the stacked R_i = Q' R, and the SVD of R = X diag(s) Y^T gives A = (Q X) diag(s)
+    # Y^T with Q = diag(Q_i) Q'. As stable as one QR of A (each step is orthogonal), and
+    # its blocks are independent and in cache: several times faster than LAPACK's SVD of
+    # the whole A on two cores.
+    A = Lw.T
+    n, m = A.shape
+    step = max(2 * m, _SVD_BLOCK_BYTES // (8 * m))
+    blocks = [slice(start, min(start + step, n)) for start in range(0, n, step)]
+    factors = list(
+        map_threads(lambda rows: linalg.qr(A[rows], mode="economic", check_finite=False), blocks)
+    )
+    stacked = np.vstack([R_i for _, R_i in factors])
+    Q_top, R = linalg.qr(stacked, mode="economic", check_finite=False)
+    X, s, Ut = linalg.svd(R, full_matrices=False, check_finite=False, lapack_driver="gesdd")
+    B = Q_top @ X  # Q X = diag(Q_i) B, one block of B's rows per block of A
+    offsets = np.cumsum([0] + [R_i.shape[0] for _, R_i in factors])
+    V = np.empty((n, len(s)))
+
+    def rows_of_v(i):
+        np.matmul(factors[i][0], B[offsets[i] : offsets[i + 1]], out=V[blocks[i]])
+
+    for _ in map_threads(rows_of_v, range(len(blocks))):
+        pass
     rank = int(np.sum(s > s[0] * max(Lw.shape) * np.finfo(float).eps))
     U, s, V = Ut[:rank].T, s[:rank], V[:, :rank]
     # The SVD gives each row V_j of V to an absolute accuracy of about eps: a column of L~

@@ -283,7 +283,10 @@ def _cli(*arguments, timeout=120):
         (["demo", "--snr-db", "-inf"], "argument --snr-db: must be finite, got -inf"),
         (["demo", "--seed", "-1"], "argument --seed: must be >= 0"),
         (["demo", "--exponent", "1e6"], "exponent=1e+06 is too large"),
-        (["demo", "--positions", "2000000"], "--positions 2000000 needs"),
+        (
+            ["demo", "--source-space", "volume", "--positions", "2000000"],
+            "--positions 2000000 needs",
+        ),
         (["sweep", "--pm-snr-db", "4000"], "argument --pm-snr-db: must be within +-300 dB"),
         (["sweep", "--positions", "4000000"], "--positions 4000000"),
     ],
