@@ -20,10 +20,10 @@ def _check_memory(method, smoother, model, n_times, memory_limit):
         needed = memory.spectral_memory(n, m, n_times)
         if needed > budget:
             raise MemoryError(
-                f"method='spectral' needs about {needed / 2**30:.3g} GiB for its model and "
-                f"one ({n}, {n_times}) output, over the memory budget of "
-                f"{budget / 2**30:.3g} GiB (memory_limit; default half the available "
-                "memory); reconstruct shorter segments of the data"
+                f"method='spectral' needs about {needed / 2**30:.3g} GiB for its model (the "
+                f"SVD of a ({m}, {n}) lead field and {n_times} steps of its recursions), over "
+                f"the memory budget of {budget / 2**30:.3g} GiB (memory_limit; default half "
+                "the available memory); reconstruct shorter segments of the data"
             )
         return
     needed = memory.covariance_memory(n, n_times, method, smoother)
@@ -142,7 +142,7 @@ def reconstruct(
         raise InputError(f"method='spectral' needs A = a I, Q = q I, P_0 = theta0 I: {problem}")
     _check_memory(method, smoother, model, Y.shape[1], memory_limit)
     if method == "spectral":
-        return spectral.run(model, Y, exponent, smoother)
+        return spectral.run(model, Y, exponent, smoother, memory_limit)
     path = kalman.run if method == "filterpy" else dense.run
     try:
         return path(model, Y, exponent, smoother)

@@ -52,7 +52,7 @@ def require(nbytes, what, budget=None):
 
 
 def spectral_memory(n_sources, n_channels, n_times):
-    """Bytes the spectral path needs to prepare its model and form one output array.
+    """Bytes the spectral path needs for its model, before any (n, T) output.
 
     Parameters
     ----------
@@ -61,15 +61,17 @@ def spectral_memory(n_sources, n_channels, n_times):
     Returns
     -------
     int
-        ``8 n (4 m + T)``: ``V`` and ``V o V`` (n x r each, r <= m), about as much again for
-        the SVD, and one (n, T) output; each further output asked for needs ``8 n T`` more.
+        ``8 (4 n m + 8 m T)``: ``V`` and ``V o V`` (n x r each, r <= m), about as much
+        again for the SVD, and the r x T recursions. Each output asked for in memory needs
+        ``8 n T`` more (checked when it is asked for); streamed (``Reconstruction.to_zarr``,
+        ``.blocks``, ``.to_dask``) a few blocks of about 4 MiB.
 
     Examples
     --------
     >>> spectral_memory(150_000, 128, 1000) / 2**30  # GiB
-    1.68...
+    0.58...
     """
-    return 8 * n_sources * (4 * n_channels + n_times)
+    return 8 * (4 * n_sources * n_channels + 8 * n_channels * n_times)
 
 
 def covariance_memory(n_sources, n_times, method="dense", smoother=None):

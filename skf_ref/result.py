@@ -217,17 +217,29 @@ class Reconstruction:
         rows : slice
         block : ndarray, shape (n_rows, n_times)
         """
-        from .rows import BLOCK_BYTES, NAMES
+        from .rows import BLOCK_BYTES, NAMES, SMOOTH_BYTES, SMOOTH_COLUMNS
 
         check_choice("name", name, NAMES)
-        step = BLOCK_BYTES // (8 * self.n_times) if rows is None else rows
+        n, T = self.n_sources, self.n_times
+        step = BLOCK_BYTES // (8 * T) if rows is None else rows
         step = check_int("rows", max(1, step))
         computed = self.computed(name) or self._rows is None
-        for start in range(0, self.n_sources, step):
-            where = slice(start, min(start + step, self.n_sources))
-            block = self._array(name)[where] if computed else self._rows.block(name, where).T
-            self._check_finite(name, block)
-            yield where, block
+        # the smoother's backward pass costs T vector operations per block computed, so on
+        # long recordings narrow blocks are computed several at a time
+        smoothed = not computed and name == "z" and self.smoother == "rts-standardized"
+        width = min(SMOOTH_COLUMNS, SMOOTH_BYTES // (8 * T))
+        group = step * max(1, width // step) if smoothed else step
+        for first in range(0, n, group):
+            stop = min(first + group, n)
+            many = None if computed else self._rows.block(name, slice(first, stop)).T
+            for start in range(first, stop, step):
+                where = slice(start, min(start + step, stop))
+                if computed:
+                    block = self._array(name)[where]
+                else:
+                    block = many[where.start - first : where.stop - first]
+                self._check_finite(name, block)
+                yield where, block
 
     def to_zarr(self, path, arrays=("z",), chunks=None, overwrite=False):
         """Stream outputs into a zarr store, one block of rows at a time.

@@ -19,7 +19,14 @@ from . import memory
 from .singular import backward, map_threads
 from .standardization import standardization_weights, standardize
 
-__all__ = ["BLOCK_BYTES", "NAMES", "SpectralRows"]
+__all__ = [
+    "BLOCK_BYTES",
+    "MIN_BLOCK_COLUMNS",
+    "NAMES",
+    "SMOOTH_BYTES",
+    "SMOOTH_COLUMNS",
+    "SpectralRows",
+]
 
 #: The outputs a reconstruction holds.
 NAMES = ("z", "x", "z_filtered", "x_filtered", "weights")
@@ -27,6 +34,15 @@ NAMES = ("z", "x", "z_filtered", "x_filtered", "weights")
 #: allocator to reuse them (a fresh large allocation costs a page fault per 4 KiB) and for
 #: a block to stay in cache between the steps that touch it.
 BLOCK_BYTES = 4 * 2**20
+#: But never fewer columns than this: each block reads the whole (T, r) recursions, so on
+#: long recordings (T = 200 000: 2 columns in 4 MiB) narrow blocks would read them
+#: thousands of times and multiply matrices one or two columns wide.
+MIN_BLOCK_COLUMNS = 64
+#: Streamed "rts-standardized" outputs narrower than SMOOTH_COLUMNS are computed several
+#: blocks at a time, up to that width or SMOOTH_BYTES: the smoother's backward pass costs
+#: T vector operations per block whatever its width.
+SMOOTH_COLUMNS = 512
+SMOOTH_BYTES = 256 * 2**20
 
 
 class SpectralRows:
@@ -46,12 +62,26 @@ class SpectralRows:
         ``V^T x^s_t`` for ``"rts-state"``.
     gains : (gamma, beta, a), optional
         The smoother's gains (T-1, r), (T-1,) and the transition, for ``"rts-standardized"``.
+    memory_limit : float, optional
+        Bytes a whole output (:meth:`array`) may take; default half the memory available.
     """
 
-    def __init__(self, V, omega, p_pred, xi, exponent, smoother, xi_smoothed=None, gains=None):
+    def __init__(
+        self,
+        V,
+        omega,
+        p_pred,
+        xi,
+        exponent,
+        smoother,
+        xi_smoothed=None,
+        gains=None,
+        memory_limit=None,
+    ):
         self.V, self.V_squared, self.omega = V, V**2, omega
         self.n_sources, self.n_times = V.shape[0], len(omega)
         self.exponent, self.smoother, self.gains = exponent, smoother, gains
+        self.memory_limit = memory_limit
         self.xi, self.xi_smoothed = xi, xi_smoothed
         root = np.sqrt(p_pred)
         # P_{t|t-1}^{-1/2} x = V diag(p^{-1/2}) xi                      §2.2 (6)
@@ -61,15 +91,19 @@ class SpectralRows:
 
     # --- one block of columns (sources), time-major ---------------------------------------
 
-    def block(self, name, columns, out=None, work=None, delta=None):
+    def block(self, name, columns, out=None, delta=None):
         """Rows ``columns`` of output ``name``, as a (n_times, n_rows) array.
+
+        Filled in sub-blocks of about :data:`BLOCK_BYTES` on worker threads
+        (:func:`skf_ref.singular.map_threads`), then smoothed as a whole.
 
         Parameters
         ----------
         name : {"z", "x", "z_filtered", "x_filtered", "weights"}
         columns : slice
-        out, work : ndarray, shape (n_times, n_rows), optional
-            Where to write, and scratch space.
+            With a step of 1.
+        out : ndarray, shape (n_times, n_rows), optional
+            Where to write.
         delta : ndarray, shape (n_times, r), optional
             The "rts-standardized" correction (:meth:`correction_from`); default computed
             here by a pass over every row (:meth:`correction`).
@@ -78,9 +112,20 @@ class SpectralRows:
         -------
         ndarray, shape (n_times, n_rows)
         """
-        k = len(range(*columns.indices(self.n_sources)))
-        out = np.empty((self.n_times, k)) if out is None else out
-        work = np.empty((self.n_times, k)) if work is None else work
+        first, stop, _ = columns.indices(self.n_sources)
+        out = np.empty((self.n_times, stop - first)) if out is None else out
+
+        def fill(part):
+            self._filtered(name, part, out[:, part.start - first : part.stop - first])
+
+        for _ in map_threads(fill, self._column_blocks(first, stop)):
+            pass
+        if name == "z" and self.smoother == "rts-standardized":
+            self._smooth(columns, out, self.correction() if delta is None else delta)
+        return out
+
+    def _filtered(self, name, columns, out):
+        """``block`` without the "rts-standardized" correction, for one cache-sized block."""
         if name == "x_filtered" or (name == "x" and self.smoother != "rts-state"):
             return np.matmul(self.xi, self.V[columns].T, out=out)
         if name == "x":
@@ -88,19 +133,25 @@ class SpectralRows:
         if name == "weights":
             return standardization_weights(self._raw(columns, out), self.exponent, out=out)
         smoothed = name == "z" and self.smoother == "rts-state"
-        self._standardized(self.u_smoothed if smoothed else self.u, columns, out, work)
-        if name == "z" and self.smoother == "rts-standardized":
-            self._smooth(columns, out, self.correction() if delta is None else delta)
-        return out
+        return self._standardized(self.u_smoothed if smoothed else self.u, columns, out)
 
-    def _raw(self, columns, out):
+    def _raw(self, columns, out, times=slice(None)):
         # w_t = (V o V) omega_t                                        §2.2 (7)
-        return np.matmul(self.omega, self.V_squared[columns].T, out=out)
+        return np.matmul(self.omega[times], self.V_squared[columns].T, out=out)
 
-    def _standardized(self, u, columns, out, work):
-        # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t           §2.2 (6)-(7)
-        np.matmul(u, self.V[columns].T, out=out)
-        standardize(self._raw(columns, work), out, self.exponent, out=out, overwrite_w=True)
+    def _standardized(self, u, columns, out):
+        """``z`` of these columns into ``out`` (T, k), a few time steps at a time: on long
+        recordings a block of :data:`MIN_BLOCK_COLUMNS` is larger than the cache."""
+        step = max(1, BLOCK_BYTES // (8 * out.shape[1]))
+        work = np.empty((min(step, self.n_times), out.shape[1]))
+        for start in range(0, self.n_times, step):
+            times = slice(start, start + step)
+            part, w = out[times], work[: len(out[times])]
+            # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t           §2.2 (6)-(7)
+            np.matmul(u[times], self.V[columns].T, out=part)
+            standardize(
+                self._raw(columns, w, times), part, self.exponent, out=part, overwrite_w=True
+            )
         return out
 
     def _smooth(self, columns, out, delta):
@@ -120,14 +171,13 @@ class SpectralRows:
 
     def _projected(self, columns, out):
         """:meth:`projection`, with ``z_{t|t}`` of these rows left in ``out``."""
-        work = np.empty(out.shape)
-        return self._standardized(self.u, columns, out, work) @ self.V[columns]
+        return self._standardized(self.u, columns, out) @ self.V[columns]
 
     def correction(self):
         """delta (T, r) of the spectral module docstring, by one pass over every block."""
         if self._delta is None:
             zeta = np.zeros_like(self.u)
-            for share in map_threads(self.projection, self._column_blocks()):
+            for share in map_threads(self.projection, self._column_blocks(0, self.n_sources)):
                 zeta += share  # in block order, whatever the number of threads
             self._delta = self.correction_from(zeta)
         return self._delta
@@ -142,11 +192,11 @@ class SpectralRows:
             delta[t] = gamma[t] * delta[t + 1] + (gamma[t] - beta[t]) * (chi[t + 1] - a * zeta[t])
         return delta
 
-    def _column_blocks(self):
-        """Column slices of about :data:`BLOCK_BYTES` of (T, k) output each."""
-        step = max(1, BLOCK_BYTES // (8 * self.n_times))
-        for start in range(0, self.n_sources, step):
-            yield slice(start, min(start + step, self.n_sources))
+    def _column_blocks(self, first, stop):
+        """Slices of columns ``first:stop`` of about :data:`BLOCK_BYTES` of (T, k) each."""
+        step = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * self.n_times))
+        for start in range(first, stop, step):
+            yield slice(start, min(start + step, stop))
 
     # --- a whole output in memory -------------------------------------------------------
 
@@ -157,7 +207,12 @@ class SpectralRows:
         ``zeta`` in one pass, then smoothed in place: one (T, n) array.
         """
         n, T = self.n_sources, self.n_times
-        memory.require(8 * n * T, f"a ({n}, {T}) output array")
+        memory.require(
+            8 * n * T,
+            f"a ({n}, {T}) output array in memory (stream it instead: Reconstruction.to_zarr, "
+            ".blocks or .to_dask)",
+            budget=self.memory_limit,
+        )
         result = np.empty((T, n))
         if name == "z" and self.smoother == "rts-standardized" and self._delta is None:
             zeta = np.zeros_like(self.u)
@@ -165,24 +220,18 @@ class SpectralRows:
             def fill(columns):
                 return self._projected(columns, result[:, columns])
 
-            for share in map_threads(fill, self._column_blocks()):
+            for share in map_threads(fill, self._column_blocks(0, n)):
                 zeta += share  # in block order, whatever the number of threads
             self._delta = self.correction_from(zeta)
             self._smooth(slice(None), result, self._delta)  # whole rows: T steps, not T a block
             return result
-
-        def fill(columns):
-            self.block(name, columns, out=result[:, columns])
-
-        for _ in map_threads(fill, self._column_blocks()):
-            pass
-        return result
+        return self.block(name, slice(0, n), out=result)
 
     def min_raw_weight(self):
         """The smallest raw weight over every source and step (only to explain a failure)."""
         return min(
             np.min(self._raw(columns, np.empty((self.n_times, columns.stop - columns.start))))
-            for columns in self._column_blocks()
+            for columns in self._column_blocks(0, self.n_sources)
         )
 
 

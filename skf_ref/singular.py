@@ -124,8 +124,8 @@ def thin_svd(Lw):
     # Tall-skinny QR of A = L~^T (n, m): the QR of each block of rows, A_i = Q_i R_i, then
     # of the stacked R_i = Q' R, and the SVD of R = X diag(s) Y^T gives A = (Q X) diag(s)
     # Y^T with Q = diag(Q_i) Q'. As stable as one QR of A (each step is orthogonal), and
-    # its blocks are independent and in cache: several times faster than LAPACK's SVD of
-    # the whole A on two cores.
+    # its blocks are independent and in cache: at 150 000 x 128 on two cores, 0.75 s
+    # against 1.3-1.8 s for LAPACK's SVD (gesdd) of the whole A.
     A = Lw.T
     n, m = A.shape
     step = max(2 * m, _SVD_BLOCK_BYTES // (8 * m))

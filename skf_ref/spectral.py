@@ -142,7 +142,7 @@ class SpectralModel:
         """int : Numerical rank of the whitened lead field."""
         return len(self.s)
 
-    def apply(self, Y, exponent, smoother):
+    def apply(self, Y, exponent, smoother, memory_limit=None):
         """Filter and smooth data ``Y``; equal to :func:`skf_ref.dense.run` on the model.
 
         Parameters
@@ -150,6 +150,9 @@ class SpectralModel:
         Y : ndarray, shape (n_channels, n_times)
         exponent : float
         smoother : {None, "rts-standardized", "rts-state"}
+        memory_limit : float, optional
+            Bytes an (n, T) output asked for in memory may take (default half the memory
+            available then); streamed outputs need only a few blocks.
 
         Returns
         -------
@@ -173,6 +176,7 @@ class SpectralModel:
             smoother,
             xi_smoothed=backward(xi, gamma, a) if smoother == "rts-state" else None,
             gains=(gamma, beta, a),
+            memory_limit=memory_limit,
         )
         return Reconstruction(
             **{name: functools.partial(_transposed, rows, name) for name in NAMES},
@@ -194,7 +198,7 @@ def _transposed(rows, name):
     return rows.array(name).T
 
 
-def run(model, Y, exponent, smoother):
+def run(model, Y, exponent, smoother, memory_limit=None):
     """Filter and optionally smooth in the singular basis; equal to :func:`skf_ref.dense.run`.
 
     Parameters
@@ -204,10 +208,12 @@ def run(model, Y, exponent, smoother):
     Y : ndarray, shape (n_channels, n_times)
     exponent : float
     smoother : {None, "rts-standardized", "rts-state"}
+    memory_limit : float, optional
+        See :meth:`SpectralModel.apply`.
 
     Returns
     -------
     Reconstruction
         Its arrays are computed on first access.
     """
-    return SpectralModel(model, Y.shape[1]).apply(Y, exponent, smoother)
+    return SpectralModel(model, Y.shape[1]).apply(Y, exponent, smoother, memory_limit)

@@ -202,9 +202,19 @@ def test_ill_conditioned_covariances_say_what_failed(method):
 
 
 def test_spectral_outputs_that_do_not_fit_are_refused_before_any_work():
+    # the model fits; an output in memory would not, so asking for it is refused (naming
+    # the way to stream it) before anything is allocated, and a block of it still comes
     L = np.eye(4, 100_000) + 1.0
-    with pytest.raises(MemoryError, match=r"needs about 14.9 GiB .* \(100000, 20000\) output"):
-        reconstruct(L, np.zeros((4, 20_000)), noise_std=1, theta0=1, q=1, memory_limit=2**30)
+    rec = reconstruct(L, np.zeros((4, 20_000)), noise_std=1, theta0=1, q=1, memory_limit=2**30)
+    with pytest.raises(MemoryError, match=r"a \(100000, 20000\) output array .* needs 14.9 GiB"):
+        _ = rec.z
+    with pytest.raises(MemoryError, match=r"stream it instead: Reconstruction.to_zarr"):
+        _ = rec.weights
+    columns, block = next(iter(rec.blocks("z", rows=10)))
+    assert block.shape == (10, 20_000)
+    model_too_large = dict(noise_std=1, theta0=1, q=1, memory_limit=2**20)
+    with pytest.raises(MemoryError, match=r"needs about 0.0\d+ GiB for its model"):
+        reconstruct(L, np.zeros((4, 20_000)), **model_too_large)
 
 
 def test_sweep_arguments_are_checked(tmp_path):

@@ -170,3 +170,13 @@ def test_the_number_of_threads_changes_no_block_output():
     for one, two in zip(blocks_one, blocks_two, strict=True):
         np.testing.assert_array_equal(one, two)
     np.testing.assert_allclose(z_one, z_two, rtol=0, atol=1e-13 * np.abs(z_one).max())
+
+
+def test_narrow_smoothed_blocks_computed_several_at_a_time_equal_the_whole():
+    # rows=7 at T=300: blocks of 7 rows are computed 511 rows at a time (the smoother's
+    # backward pass is paid per block computed) and handed out 7 by 7
+    L, Y = problem(n=1200, m=16, T=300)
+    rec = reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, smoother="rts-standardized")
+    pieces = list(rec.blocks("z", rows=7))
+    assert [rows.stop - rows.start for rows, _ in pieces[:3]] == [7, 7, 7]
+    np.testing.assert_allclose(np.vstack([b for _, b in pieces]), rec.z, rtol=0, atol=1e-12)

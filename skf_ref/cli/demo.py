@@ -185,7 +185,8 @@ def run(args):
     testing = _testing_data(args)
     if testing is None and args.source_space == "volume":
         args.positions = 3000 if args.positions is None else args.positions
-        outputs = 3 * memory.spectral_memory(3 * args.positions, 64, 41)
+        n = 3 * args.positions  # two runs, each with its model and z and weights in memory
+        outputs = 2 * memory.spectral_memory(n, 64, 41) + 4 * 8 * n * 41
         head_model.check_size(args.positions, args.montage, extra=outputs, name="--positions")
     elif args.positions is not None:
         raise InputError(
