@@ -68,8 +68,8 @@ def spectral_memory(n_sources, n_channels, n_times):
 
     Examples
     --------
-    >>> spectral_memory(150_000, 128, 1000) / 2**30  # GiB
-    0.58...
+    >>> round(spectral_memory(150_000, 128, 1000) / 2**30, 2)  # GiB
+    0.58
     """
     return 8 * (4 * n_sources * n_channels + 8 * n_channels * n_times)
 
