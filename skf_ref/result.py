@@ -240,6 +240,7 @@ class Reconstruction:
                     block = many[where.start - first : where.stop - first]
                 self._check_finite(name, block)
                 yield where, block
+            del many, block  # before the next group is computed: one group in memory
 
     def to_zarr(self, path, arrays=("z",), chunks=None, overwrite=False):
         """Stream outputs into a zarr store, one block of rows at a time.

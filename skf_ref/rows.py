@@ -23,6 +23,8 @@ __all__ = [
     "BLOCK_BYTES",
     "MIN_BLOCK_COLUMNS",
     "NAMES",
+    "PROJECTION_COLUMNS",
+    "PROJECTION_STEPS",
     "SMOOTH_BYTES",
     "SMOOTH_COLUMNS",
     "SpectralRows",
@@ -43,6 +45,11 @@ MIN_BLOCK_COLUMNS = 64
 #: T vector operations per block whatever its width.
 SMOOTH_COLUMNS = 512
 SMOOTH_BYTES = 256 * 2**20
+#: The "rts-standardized" correction sums zeta over groups of this many rows, in tiles of
+#: this many steps (one work item of the worker threads each): items small enough for
+#: memory and for both cores to share even at T = 1000, large enough to amortize their cost.
+PROJECTION_COLUMNS = 8192
+PROJECTION_STEPS = 8192
 
 
 class SpectralRows:
@@ -139,18 +146,21 @@ class SpectralRows:
         # w_t = (V o V) omega_t                                        §2.2 (7)
         return np.matmul(self.omega[times], self.V_squared[columns].T, out=out)
 
-    def _standardized(self, u, columns, out):
-        """``z`` of these columns into ``out`` (T, k), a few time steps at a time: on long
-        recordings a block of :data:`MIN_BLOCK_COLUMNS` is larger than the cache."""
+    def _standardized(self, u, columns, out, times=slice(None)):
+        """``z`` of these columns at steps ``times`` into ``out`` (n_steps, k), a few time
+        steps at a time: on long recordings a block of :data:`MIN_BLOCK_COLUMNS` is larger
+        than the cache."""
+        first, stop, _ = times.indices(self.n_times)
         step = max(1, BLOCK_BYTES // (8 * out.shape[1]))
-        work = np.empty((min(step, self.n_times), out.shape[1]))
-        for start in range(0, self.n_times, step):
-            times = slice(start, start + step)
-            part, w = out[times], work[: len(out[times])]
+        work = np.empty((min(step, stop - first), out.shape[1]))
+        for start in range(first, stop, step):
+            steps = slice(start, min(start + step, stop))
+            part = out[start - first : steps.stop - first]
+            w = work[: len(part)]
             # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t           §2.2 (6)-(7)
-            np.matmul(u[times], self.V[columns].T, out=part)
+            np.matmul(u[steps], self.V[columns].T, out=part)
             standardize(
-                self._raw(columns, w, times), part, self.exponent, out=part, overwrite_w=True
+                self._raw(columns, w, steps), part, self.exponent, out=part, overwrite_w=True
             )
         return out
 
@@ -164,28 +174,52 @@ class SpectralRows:
         backward(out, beta, a, overwrite=True)  # h: scalar gains, row by row
         _add_product(out, delta, self.V[columns])
 
-    def projection(self, columns):
-        """These rows' share of ``zeta = V^T z_{t|t}``: (n_times, r); the shares add up."""
-        k = len(range(*columns.indices(self.n_sources)))
-        return self._projected(columns, np.empty((self.n_times, k)))
+    def projection(self, columns, times=slice(None)):
+        """These rows' share of ``zeta = V^T z_{t|t}`` at steps ``times``: (n_steps, r).
+
+        The shares of disjoint rows add up to ``zeta``. Computed a few time steps at a time:
+        no (n_steps, n_rows) array is formed.
+        """
+        first, stop, _ = times.indices(self.n_times)
+        share = np.zeros((stop - first, self.V.shape[1]))
+        tile = max(1, BLOCK_BYTES // (8 * MIN_BLOCK_COLUMNS))
+        for start in range(first, stop, tile):
+            steps = slice(start, min(start + tile, stop))
+            width = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * (steps.stop - start)))
+            work = np.empty((steps.stop - start, width))
+            for block in _slices(*columns.indices(self.n_sources)[:2], width):
+                z = self._standardized(self.u, block, work[:, : block.stop - block.start], steps)
+                share[start - first : steps.stop - first] += z @ self.V[block]
+        return share
 
     def _projected(self, columns, out):
-        """:meth:`projection`, with ``z_{t|t}`` of these rows left in ``out``."""
+        """``zeta``'s share of these rows, with ``z_{t|t}`` of these rows left in ``out``."""
         return self._standardized(self.u, columns, out) @ self.V[columns]
 
     def correction(self):
-        """delta (T, r) of the spectral module docstring, by one pass over every block."""
+        """delta (T, r) of the spectral module docstring, by one pass over every row.
+
+        ``zeta`` is summed over groups of :data:`PROJECTION_COLUMNS` rows in a fixed order,
+        per tile of :data:`PROJECTION_STEPS` steps on worker threads: the same bits whatever
+        the number of threads, and memory of a few (tile, r) arrays, not (T, r) per block.
+        """
         if self._delta is None:
             zeta = np.zeros_like(self.u)
-            for share in map_threads(self.projection, self._column_blocks(0, self.n_sources)):
-                zeta += share  # in block order, whatever the number of threads
+            items = [
+                (rows, steps)
+                for steps in _slices(0, self.n_times, PROJECTION_STEPS)
+                for rows in _slices(0, self.n_sources, PROJECTION_COLUMNS)
+            ]
+            shares = map_threads(lambda item: self.projection(*item), items)
+            for (_, steps), share in zip(items, shares, strict=True):
+                zeta[steps] += share  # in a fixed order, whatever the number of threads
             self._delta = self.correction_from(zeta)
         return self._delta
 
     def correction_from(self, zeta):
         """delta (T, r) from ``zeta = V^T z_{t|t}`` (T, r), the sum of :meth:`projection`."""
         gamma, beta, a = self.gains
-        chi = backward(zeta, beta[:, None], a)  # = V^T h
+        chi = backward(zeta, beta, a)  # = V^T h
         delta = np.zeros_like(zeta)
         for t in range(len(zeta) - 2, -1, -1):
             # delta_t = gamma_t delta_{t+1} + (gamma_t - beta_t)(chi_{t+1} - a zeta_t)
@@ -194,9 +228,7 @@ class SpectralRows:
 
     def _column_blocks(self, first, stop):
         """Slices of columns ``first:stop`` of about :data:`BLOCK_BYTES` of (T, k) each."""
-        step = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * self.n_times))
-        for start in range(first, stop, step):
-            yield slice(start, min(start + step, stop))
+        return _slices(first, stop, max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * self.n_times)))
 
     # --- a whole output in memory -------------------------------------------------------
 
@@ -233,6 +265,12 @@ class SpectralRows:
             np.min(self._raw(columns, np.empty((self.n_times, columns.stop - columns.start))))
             for columns in self._column_blocks(0, self.n_sources)
         )
+
+
+def _slices(first, stop, step):
+    """Consecutive slices of ``first:stop``, ``step`` long (the last may be shorter)."""
+    for start in range(first, stop, step):
+        yield slice(start, min(start + step, stop))
 
 
 def _add_product(out, delta, V_rows):

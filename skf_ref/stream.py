@@ -88,6 +88,7 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
             )
             for rows, block in reconstruction.blocks(name, rows=step):
                 array[rows] = block
+                del block  # lets the blocks' group go before the next one is computed
         if path.exists():
             shutil.rmtree(path)
         tmp.rename(path)

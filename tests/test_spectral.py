@@ -177,3 +177,23 @@ def test_outputs_are_computed_on_access_only():
     assert rec.z.shape == (30, 3)
     assert not callable(rec._arrays["z"]) and callable(rec._arrays["weights"])
     assert rec.z is rec.z  # computed once, then kept
+
+
+@pytest.mark.parametrize("n_times", [2, 31, 32, 33, 97, 1000])
+@pytest.mark.parametrize("transition", [0.7, 1.0, 2.0])
+def test_backward_in_chunks_equals_the_step_by_step_recursion(n_times, transition):
+    # narrow arrays take CHUNK_STEPS steps per matrix product: the same linear map, each
+    # number a combination of at most CHUNK_STEPS + 1 terms with coefficients <= 1 / a
+    # (gains below 1 / a, as the filter's are), so rounding stays at a few eps
+    from skf_ref.singular import CHUNK_COLUMNS, backward
+
+    rng = np.random.default_rng(n_times)
+    gain = rng.uniform(0.05, 0.99, n_times - 1) / transition
+    for width in (1, 64, CHUNK_COLUMNS):  # the last one step at a time
+        z = rng.standard_normal((n_times, width))
+        s = z.copy()
+        for t in range(n_times - 2, -1, -1):
+            s[t] = z[t] + gain[t] * (s[t + 1] - transition * z[t])
+        got = backward(z, gain, transition)
+        np.testing.assert_allclose(got, s, rtol=0, atol=1e-14 * np.abs(s).max())
+        np.testing.assert_array_equal(got[-1], z[-1])
