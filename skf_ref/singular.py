@@ -236,9 +236,8 @@ def backward(z, gain, a, overwrite=False):
     if gain.ndim == 1 and s.ndim == 2 and s.shape[1] < CHUNK_COLUMNS:
         b = CHUNK_STEPS
         first %= b
-        for chunk, M in zip(
-            range(len(s) - 1 - b, first - 1, -b), _chunk_matrices(gain[first:], a, b)[::-1]
-        ):
+        matrices = _chunk_matrices(gain[first:], a, b)[::-1]
+        for chunk, M in zip(range(len(s) - 1 - b, first - 1, -b), matrices, strict=True):
             s[chunk : chunk + b] = M @ s[chunk : chunk + b + 1]
     for t in range(first - 1, -1, -1):
         # the same, in place: s_t = (1 - a G_t) z_t + G_t s_{t+1}
