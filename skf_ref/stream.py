@@ -7,9 +7,11 @@ paths, held in memory already, are cut into the same blocks. zarr and Dask are o
 ``pip install "skf_ref[zarr]"`` or ``"skf_ref[dask]"``.
 """
 
+import collections
 import contextlib
 import shutil
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -17,11 +19,14 @@ import numpy as np
 from .checks import InputError, check_choice, check_int
 from .rows import NAMES
 
-__all__ = ["BLOCK_BYTES", "to_dask", "to_zarr"]
+__all__ = ["BLOCK_BYTES", "WRITE_BEHIND_BYTES", "to_dask", "to_zarr"]
 
 #: Default size of one zarr chunk or Dask block (one block of rows): Dask's own advice is
 #: blocks of tens to hundreds of MiB.
 BLOCK_BYTES = 64 * 2**20
+#: Blocks computed but not yet written to disk (:func:`to_zarr` writes on a thread of its
+#: own while the next blocks are computed): at most this many bytes.
+WRITE_BEHIND_BYTES = 128 * 2**20
 
 
 def _rows_per_block(reconstruction, chunks):
@@ -44,7 +49,8 @@ def _optional(module, extra):
 def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
     """Write outputs to a zarr store (a folder), one block of rows at a time.
 
-    No output is held whole: memory is the r x T quantities and one block. The store is
+    No output is held whole: memory is the r x T quantities, the block being computed and
+    at most :data:`WRITE_BEHIND_BYTES` of blocks waiting for the disk. The store is
     written under a temporary name beside ``path`` and renamed when complete, so an
     interruption leaves no half-written store.
 
@@ -86,9 +92,7 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
             array = group.create_array(
                 name, shape=shape, chunks=(step, shape[1]), dtype="f8", compressors=None
             )
-            for rows, block in reconstruction.blocks(name, rows=step):
-                array[rows] = block
-                del block  # lets the blocks' group go before the next one is computed
+            _write_behind(reconstruction.blocks(name, rows=step), array.__setitem__)
         if path.exists():
             shutil.rmtree(path)
         tmp.rename(path)
@@ -97,6 +101,27 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
             shutil.rmtree(tmp)
         raise
     return zarr.open_group(path, mode="r")
+
+
+def _write_behind(blocks, write, limit=WRITE_BEHIND_BYTES):
+    """``write(rows, block)`` for each of ``blocks`` on a writer thread, so that the disk
+    writes while the next blocks are computed; at most ``limit`` bytes wait to be written.
+    Returns when every block is written; an interruption cancels the writes not started."""
+    pending, waiting = collections.deque(), 0
+    with ThreadPoolExecutor(1) as writer:
+        try:
+            for rows, block in blocks:
+                pending.append((writer.submit(write, rows, block), block.nbytes))
+                waiting += block.nbytes
+                del block  # the writer's reference is the only one: freed once written
+                while pending and (waiting > limit or pending[0][0].done()):
+                    done, nbytes = pending.popleft()
+                    done.result()
+                    waiting -= nbytes
+            for done, _ in pending:
+                done.result()
+        finally:
+            writer.shutdown(cancel_futures=True)
 
 
 def to_dask(reconstruction, name="z", chunks=None):
