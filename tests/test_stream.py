@@ -78,6 +78,29 @@ def test_zarr_store_is_whole_or_absent(tmp_path, monkeypatch):
         rec.to_zarr(tmp_path / "s.zarr", arrays=("zz",))
 
 
+def test_a_failed_write_leaves_no_store_and_says_why(tmp_path, monkeypatch):
+    # blocks are written on a thread of their own: its error (here a full disk) must still
+    # reach the caller, and the half-written store must go
+    import errno
+
+    from skf_ref import stream
+
+    written = []
+
+    def full_disk(rows, block):
+        if written:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        written.append(rows)
+
+    original = stream._write_behind
+    monkeypatch.setattr(
+        stream, "_write_behind", lambda blocks, write: original(blocks, full_disk, limit=0)
+    )
+    with pytest.raises(OSError, match="No space left"):
+        run("rts-standardized").to_zarr(tmp_path / "r.zarr", chunks=10)
+    assert written and not list(tmp_path.iterdir())
+
+
 @pytest.mark.parametrize("threads", [1, 2])
 def test_no_n_by_t_array_before_an_output_is_asked_for(threads):
     # what a spectral reconstruct holds is n x r (V and the SVD's workspace, here ~10 MB)
