@@ -146,7 +146,8 @@ def thin_svd(Lw):
     for _ in map_threads(rows_of_v, range(len(blocks))):
         pass
     rank = int(np.sum(s > s[0] * max(Lw.shape) * np.finfo(float).eps))
-    U, s, V = Ut[:rank].T, s[:rank], V[:, :rank]
+    # contiguous rows of V: every output is a product with blocks of them
+    U, s, V = Ut[:rank].T, s[:rank], np.ascontiguousarray(V[:, :rank])
     # The SVD gives each row V_j of V to an absolute accuracy of about eps: a column of L~
     # much weaker than the others (||l_j|| << s_1) gets a row of size ~||l_j|| / s and only
     # eps s / ||l_j|| relative accuracy. V_j = l_j^T U diag(1/s) (from L~ = U diag(s) V^T)

@@ -69,12 +69,15 @@ def standardization_weights(w, exponent, out=None):
         if quarters != round(quarters) or quarters > 16:
             return np.power(w, -exponent, out=out)
         whole, fourths = divmod(round(quarters), 4)
-        power = None  # w^(fourths / 4) * w^whole, built from square roots and products
+        # w^(fourths / 4) * w^whole, from square roots and products in one array: a second
+        # temporary as large as w costs more in page faults than all the arithmetic
+        power = None
         if fourths:
             power = np.sqrt(w)
             if fourths != 2:
-                root = np.sqrt(power)  # w^(1/4)
-                power = root if fourths == 1 else np.multiply(power, root, out=power)
+                np.sqrt(power, out=power)  # w^(1/4)
+            if fourths == 3:
+                np.divide(w, power, out=power)  # w^(3/4) = w / w^(1/4)
         for _ in range(whole):
             power = w.copy() if power is None else np.multiply(power, w, out=power)
         if power is None:  # exponent 0: W = I
