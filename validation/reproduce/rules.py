@@ -267,6 +267,24 @@ def rule_f5(table):
     Finding
     """
     ep, pm = TUNED_PRIOR
+    high, n15 = _rate(
+        table,
+        30.0,
+        ep,
+        pm,
+        1.5,
+        SMOOTHED[1],
+        lambda r: r["deep_region_at_superficial_peak_db"] > -DETECTION_DB,
+    )
+    return _f5_finding(
+        table,
+        (f"exponent 1.5: deep within 6 dB at 2.5 ms in {high}/{n15} seeds", 2 * high > n15),
+    )
+
+
+def _f5_finding(table, overemphasis):
+    """F5 from criteria (a)-(c), the same in v1 and v2, and the rule's own (d)."""
+    ep, pm = TUNED_PRIOR
     smoother = SMOOTHED[1]
     suppression, suppression_text = _f5_suppression(table, ep, pm)
     scores = pd.DataFrame(
@@ -274,19 +292,14 @@ def rule_f5(table):
         index=list(RANKED_EXPONENTS),
         columns=["mean", "se", "n"],
     )
-
-    def smoothed_seeds(exponent, predicate):
-        return _rate(table, 30.0, ep, pm, exponent, smoother, predicate)
-
-    missed, n1 = smoothed_seeds(1.0, lambda r: ~r["deep_detected"].astype(bool))
-    high, n15 = smoothed_seeds(
-        1.5, lambda r: r["deep_region_at_superficial_peak_db"] > -DETECTION_DB
+    missed, n1 = _rate(
+        table, 30.0, ep, pm, 1.0, smoother, lambda r: ~r["deep_detected"].astype(bool)
     )
     criteria = (
         suppression,
         ("best exponent of 1, 1.25, 1.5 is 1.25", _best(scores) == [1.25]),
         (f"exponent 1: deep not detected in {missed}/{n1} seeds", 2 * missed > n1),
-        (f"exponent 1.5: deep within 6 dB at 2.5 ms in {high}/{n15} seeds", 2 * high > n15),
+        overemphasis,
     )
     score_text = ", ".join(f"{e:g}: {_pm(r['mean'], r['se'])}" for e, r in scores.iterrows())
     return _finding(

@@ -40,9 +40,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .rules import _corner_finding, _criteria_text, _f5_suppression, _finding, _level_finding
-from .settings import CORNERS, RANKED_EXPONENTS, SMOOTHED, TUNED_PRIOR, TUNING
-from .stats import _best, _cell, _fmt, _mean_se, _pm, _rate, _select, cell_stats, corner_stats
+from .rules import _corner_finding, _criteria_text, _f5_finding, _finding, _level_finding
+from .settings import CORNERS, SMOOTHED, TUNED_PRIOR, TUNING
+from .stats import _best, _cell, _fmt, _mean_se, _pm, _select, cell_stats, corner_stats
 
 __all__ = [
     "RULES_V2",
@@ -304,36 +304,15 @@ def rule_v2_f5(table, controls):
     Finding
     """
     ep, pm = TUNED_PRIOR
-    smoother = SMOOTHED[1]
-    suppression, suppression_text = _f5_suppression(table, ep, pm)
-    scores = pd.DataFrame(
-        [cell_stats(table, 30.0, ep, pm, e, smoother) for e in RANKED_EXPONENTS],
-        index=list(RANKED_EXPONENTS),
-        columns=["mean", "se", "n"],
-    )
-    missed, n1 = _rate(
-        table, 30.0, ep, pm, 1.0, smoother, lambda r: ~r["deep_detected"].astype(bool)
-    )
-    excess = deep_excess(table, controls["superficial"], 30.0, ep, pm, 1.5, smoother)["excess"]
-    high, n15 = int((excess > 0).sum()), len(excess)
-    criteria = (
-        suppression,
-        ("best exponent of 1, 1.25, 1.5 is 1.25", _best(scores) == [1.25]),
-        (f"exponent 1: deep not detected in {missed}/{n1} seeds", 2 * missed > n1),
+    excess = deep_excess(table, controls["superficial"], 30.0, ep, pm, 1.5, SMOOTHED[1])
+    high, n15 = int((excess["excess"] > 0).sum()), len(excess)
+    return _f5_finding(
+        table,
         (
             f"exponent 1.5: deep excess over the superficial-only control > 0 in {high}/{n15} "
-            f"seeds (mean {_fmt(excess.mean(), 3)})",
+            f"seeds (mean {_fmt(excess['excess'].mean(), 3)})",
             2 * high > n15,
         ),
-    )
-    score_text = ", ".join(f"{e:g}: {_pm(r['mean'], r['se'])}" for e, r in scores.iterrows())
-    return _finding(
-        5,
-        "smoothing suppresses deep activity; of exponents 1, 1.25, 1.5, 1.25 is best; "
-        "1 suppresses the deep peak, 1.5 overemphasizes it",
-        f"{suppression_text}<br>smoothed score (mm) by exponent: {score_text}<br>"
-        + _criteria_text(criteria),
-        criteria,
     )
 
 
