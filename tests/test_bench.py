@@ -112,3 +112,28 @@ def test_long_recording_reports_time_memory_and_the_disk(tmp_path):
     assert row["sequential_mib_s"] > 0 and row["fraction_of_disk"] > 0
     assert not list(tmp_path.iterdir())  # the store and the raw file are removed
     assert "Long recording" in long_recording.to_markdown(row)
+
+
+def test_long_recording_section_replaces_the_old_one(tmp_path):
+    # the bench writes the table and this section; run alone, the section is replaced and
+    # the table kept
+    from validation import long_recording
+
+    row = dict(
+        n_sources=1,
+        n_channels=2,
+        n_times=3,
+        seconds=1.0,
+        peak_rss_gib=1.0,
+        gib_written=1.0,
+        throughput_mib_s=1.0,
+        sequential_mib_s=2.0,
+        fraction_of_disk=0.5,
+        blas_threads=2,
+    )
+    long_recording.save(row, tmp_path, "# table\n\nrows\n")
+    first = (tmp_path / "results.md").read_text()
+    long_recording.save(dict(row, seconds=9.0), tmp_path, first)
+    again = (tmp_path / "results.md").read_text()
+    assert again.startswith("# table\n\nrows\n") and again.count(long_recording.HEADING) == 1
+    assert "| 9.0 |" in again and (tmp_path / "long_recording.csv").exists()

@@ -445,11 +445,10 @@ def main(argv=None):
 
         print("long recording ...", flush=True)
         row = long_recording.measure(blas_threads=args.blas_threads)
-        text += long_recording.to_markdown(row)
-        with atomic_path(args.out / "long_recording.csv") as tmp:
-            pd.DataFrame([row]).to_csv(tmp, index=False)
-    with atomic_path(args.out / "results.md") as tmp:
-        tmp.write_text(text)
+        long_recording.save(row, args.out, text)
+    else:
+        with atomic_path(args.out / "results.md") as tmp:
+            tmp.write_text(text)
     print(f"wrote {args.out / 'results.md'} and {args.out / 'results.csv'}")
     return 0
 

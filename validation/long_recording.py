@@ -24,10 +24,21 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["SIZE", "main", "measure", "sequential_write", "stream", "to_markdown"]
+__all__ = [
+    "HEADING",
+    "SIZE",
+    "main",
+    "measure",
+    "save",
+    "sequential_write",
+    "stream",
+    "to_markdown",
+]
 
 #: (n_sources, n_channels, n_times)
 SIZE = (10_000, 64, 200_000)
+#: The heading of its section of validation/bench/results.md.
+HEADING = "## Long recording, streamed to disk"
 
 
 def stream(n_sources, n_channels, n_times, folder, seed=0):
@@ -148,7 +159,7 @@ def measure(size=SIZE, folder=None, blas_threads=None):
 def to_markdown(row):
     """The long-recording result as a markdown section."""
     return (
-        "\n## Long recording, streamed to disk\n\n"
+        f"\n{HEADING}\n\n"
         f"{row['n_sources']} sources x {row['n_channels']} channels x {row['n_times']} samples, "
         '"rts-standardized", exponent 1.25: the smoothed z '
         f"({row['gib_written']:.1f} GiB) written to a zarr store block by block.\n\n"
@@ -161,21 +172,25 @@ def to_markdown(row):
     )
 
 
-def main(out=Path("validation/bench")):
-    """Run :func:`measure` alone: write ``long_recording.csv`` and replace the long
-    recording's section of ``results.md`` in ``out`` (the rest of the table is kept)."""
+def save(row, out, table):
+    """Write ``long_recording.csv`` and ``results.md`` in ``out``: ``table`` (the bench's
+    markdown, without any earlier long-recording section) followed by this one."""
     import pandas as pd
 
     from skf_ref.files import atomic_path
 
-    row = measure()
     with atomic_path(out / "long_recording.csv") as tmp:
         pd.DataFrame([row]).to_csv(tmp, index=False)
+    table = table.split(HEADING)[0].rstrip("\n") + "\n"
+    with atomic_path(out / "results.md") as tmp:
+        tmp.write_text(table + to_markdown(row))
+
+
+def main(out=Path("validation/bench")):
+    """Run :func:`measure` alone and replace its section of ``out/results.md``."""
+    row = measure()
     results = out / "results.md"
-    text = results.read_text() if results.exists() else ""
-    text = text.split(to_markdown(row).split("\n")[1])[0].rstrip("\n") + "\n"
-    with atomic_path(results) as tmp:
-        tmp.write_text(text + to_markdown(row))
+    save(row, out, results.read_text() if results.exists() else "")
     print(to_markdown(row))
     return 0
 
