@@ -11,6 +11,7 @@ Every path (:mod:`skf_ref.dense`, :mod:`skf_ref.kalman`, :mod:`skf_ref.spectral`
 a scalar ``c`` means ``c I`` (the paper's isotropic model), a matrix means itself.
 """
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -146,15 +147,20 @@ class StateSpaceModel:
         scale = np.max(np.abs(Y))
         if self.n_channels < 3 or scale == 0:
             return
-        data_referenced = np.max(np.abs(Y.mean(axis=0))) <= _REFERENCED_RTOL * scale
-        column_means = np.abs(self.L.mean(axis=0))
-        field_referenced = np.all(column_means <= _REFERENCED_RTOL * np.abs(self.L).max(axis=0))
-        if data_referenced and not field_referenced:
+        if np.max(np.abs(Y.mean(axis=0))) > _REFERENCED_RTOL * scale:
+            return  # the data are not average referenced: any lead field goes
+        if not self._field_referenced:
             raise InputError(
                 "Y is average referenced (its channel mean is 0 at every time) but L is not: "
                 "the model needs the same reference in both; average-reference L (subtract "
                 "each column's mean over the channels)"
             )
+
+    @functools.cached_property
+    def _field_referenced(self):
+        """Whether every column of ``L`` has a channel mean of 0: one pass over ``L``."""
+        column_means = np.abs(self.L.mean(axis=0))
+        return bool(np.all(column_means <= _REFERENCED_RTOL * np.abs(self.L).max(axis=0)))
 
     def matrix(self, name):
         """``"transition"``, ``"q"`` or ``"theta0"`` as an (n_sources, n_sources) matrix."""

@@ -17,7 +17,7 @@ from scipy.linalg import blas
 
 from . import memory
 from .singular import backward, map_threads
-from .standardization import standardization_weights, standardize
+from .standardization import standardization_weights, standardized_means
 
 __all__ = [
     "BLOCK_BYTES",
@@ -159,9 +159,7 @@ class SpectralRows:
             w = work[: len(part)]
             # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t           §2.2 (6)-(7)
             np.matmul(u[steps], self.V[columns].T, out=part)
-            standardize(
-                self._raw(columns, w, steps), part, self.exponent, out=part, overwrite_w=True
-            )
+            standardized_means(self._raw(columns, w, steps), part, self.exponent, out=part)
         return out
 
     def _smooth(self, columns, out, delta):

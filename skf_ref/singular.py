@@ -18,6 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from scipy import linalg
+from scipy.linalg import lapack
 
 from .checks import InputError
 
@@ -35,9 +36,11 @@ __all__ = [
 ]
 
 _LOG_2PI = np.log(2 * np.pi)
-# Rows of L~^T in one block of the SVD's first stage: about 2 MiB, so that a block's QR
-# runs in cache.
-_SVD_BLOCK_BYTES = 2 * 2**20
+# Rows of L~^T in one block of the SVD's first stage: about 8 MiB (measured against 2 and
+# 16 MiB with two BLAS threads).
+_SVD_BLOCK_BYTES = 8 * 2**20
+# Reflectors per block of LAPACK's compact WY QR (geqrt's nb).
+_QR_PANEL = 64
 # Priors evaluated at once by SpectralBasis.log_likelihood: bounds its (T, K, r) arrays.
 _PRIORS_AT_ONCE = 16
 
@@ -120,43 +123,76 @@ def thin_svd(Lw):
     U : ndarray, shape (n_channels, r)
     s : ndarray, shape (r,)
     V : ndarray, shape (n_sources, r)
+        C-contiguous.
+
+    Examples
+    --------
+    >>> Lw = np.random.default_rng(0).standard_normal((4, 10))
+    >>> U, s, V = thin_svd(Lw)
+    >>> bool(np.allclose(U * s @ V.T, Lw)), V.shape
+    (True, (10, 4))
     """
     # Tall-skinny QR of A = L~^T (n, m): the QR of each block of rows, A_i = Q_i R_i, then
     # of the stacked R_i = Q' R, and the SVD of R = X diag(s) Y^T gives A = (Q X) diag(s)
-    # Y^T with Q = diag(Q_i) Q'. As stable as one QR of A (each step is orthogonal), and
-    # its blocks are independent and in cache: at 150 000 x 128 on two cores, 0.75 s
-    # against 1.3-1.8 s for LAPACK's SVD (gesdd) of the whole A.
+    # Y^T with Q = diag(Q_i) Q'. As stable as one QR of A (each step is orthogonal). Each Q
+    # stays as Householder reflectors in LAPACK's compact WY form (geqrt), applied to X by
+    # gemqrt, never formed. The blocks run one after the other on all BLAS threads: scipy's
+    # LAPACK wrappers hold the GIL, so worker threads would take turns. At 150 000 x 128 on
+    # two cores, 0.5-0.7 s against 1.0-1.5 s for the QR that formed each Q_i in worker
+    # threads, and 1.3-1.8 s for LAPACK's SVD (gesdd) of the whole A.
     A = Lw.T
     n, m = A.shape
     step = max(2 * m, _SVD_BLOCK_BYTES // (8 * m))
     blocks = [slice(start, min(start + step, n)) for start in range(0, n, step)]
-    factors = list(
-        map_threads(lambda rows: linalg.qr(A[rows], mode="economic", check_finite=False), blocks)
+
+    factors = [_qr(A[rows]) for rows in blocks]
+    stacked = np.vstack([np.triu(reflectors[:m]) for reflectors, _ in factors])
+    top, T_top = _qr(stacked)
+    X, s, Ut = linalg.svd(
+        np.triu(top[:m]), full_matrices=False, check_finite=False, lapack_driver="gesdd"
     )
-    stacked = np.vstack([R_i for _, R_i in factors])
-    Q_top, R = linalg.qr(stacked, mode="economic", check_finite=False)
-    X, s, Ut = linalg.svd(R, full_matrices=False, check_finite=False, lapack_driver="gesdd")
-    B = Q_top @ X  # Q X = diag(Q_i) B, one block of B's rows per block of A
-    offsets = np.cumsum([0] + [R_i.shape[0] for _, R_i in factors])
-    V = np.empty((n, len(s)))
-
-    def rows_of_v(i):
-        np.matmul(factors[i][0], B[offsets[i] : offsets[i + 1]], out=V[blocks[i]])
-
-    for _ in map_threads(rows_of_v, range(len(blocks))):
-        pass
     rank = int(np.sum(s > s[0] * max(Lw.shape) * np.finfo(float).eps))
-    # contiguous rows of V: every output is a product with blocks of them
-    U, s, V = Ut[:rank].T, s[:rank], np.ascontiguousarray(V[:, :rank])
+    U, s = Ut[:rank].T, s[:rank]
+    B = _apply_q(top, T_top, X[:, :rank].T).T  # Q' X, one block of rows per block of A
+    offsets = np.cumsum([0] + [min(m, rows.stop - rows.start) for rows in blocks])
+    V = np.empty((n, rank))
+    for (reflectors, T), rows, first, stop in zip(
+        factors, blocks, offsets[:-1], offsets[1:], strict=True
+    ):
+        _apply_q(reflectors, T, B[first:stop].T, out=V[rows].T)
     # The SVD gives each row V_j of V to an absolute accuracy of about eps: a column of L~
     # much weaker than the others (||l_j|| << s_1) gets a row of size ~||l_j|| / s and only
     # eps s / ||l_j|| relative accuracy. V_j = l_j^T U diag(1/s) (from L~ = U diag(s) V^T)
     # is as accurate relative to its own size; for ||l_j|| < s_r its absolute error is at
     # most the SVD's, so V stays orthonormal to rounding.
-    weak = np.linalg.norm(Lw, axis=0) < s[-1]
+    weak = np.einsum("ij,ij->j", Lw, Lw) < s[-1] ** 2  # squared norms of L~'s columns
     if weak.any():
         V[weak] = (Lw[:, weak].T @ U) / s
     return U, s, V
+
+
+def _qr(A):
+    """QR of ``A`` (k, m) as LAPACK's reflectors and compact WY factor (geqrt)."""
+    reflectors, T, _ = lapack.dgeqrt(min(_QR_PANEL, *A.shape), A)
+    return reflectors, T
+
+
+def _apply_q(reflectors, T, Ct, out=None):
+    """``(Q [C; 0])^T`` for the Q of :func:`_qr`, from ``Ct = C^T`` (p, <= k): (p, k).
+
+    Written into ``out`` (p, k) when given; it must be Fortran-ordered, as the transpose of
+    C-ordered rows is.
+    """
+    k = len(reflectors)
+    reflectors = reflectors[:, : T.shape[1]]  # a wide block has fewer reflectors than columns
+    out = np.zeros((len(Ct), k), order="F") if out is None else out
+    out[:, : Ct.shape[1]] = Ct
+    out[:, Ct.shape[1] :] = 0
+    # (Q [C; 0])^T = [C^T, 0] Q^T
+    result, _ = lapack.dgemqrt(reflectors, T, out, side="R", trans="T", overwrite_c=1)
+    if not np.shares_memory(result, out):  # gemqrt wrote a copy: never with Fortran order
+        out[...] = result
+    return out
 
 
 def covariances(s, a, q, theta0, n_times):

@@ -118,7 +118,6 @@ class SpectralModel:
         self.n_channels, self.n_sources = model.L.shape
         self.basis = SpectralBasis(model.L, model.R) if basis is None else basis
         self.U, self.s, self.V = self.basis.U, self.basis.s, self.basis.V
-        self._V_squared = self.V**2
         self.p_pred, self.p_filt, self._u = covariances(self.s, a, q, theta0, n_times)
         # w = (V o V) omega, omega = s^2 p / (s^2 p + 1)               §2.2 (7)
         self.omega = self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)

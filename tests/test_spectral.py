@@ -197,3 +197,44 @@ def test_backward_in_chunks_equals_the_step_by_step_recursion(n_times, transitio
         got = backward(z, gain, transition)
         np.testing.assert_allclose(got, s, rtol=0, atol=1e-14 * np.abs(s).max())
         np.testing.assert_array_equal(got[-1], z[-1])
+
+
+@pytest.mark.parametrize(
+    "n_channels, n_sources, block_rows",
+    [(6, 3, 64), (8, 40, 64), (8, 1000, 64), (8, 1000, 100), (16, 16, 64), (32, 5000, 4096)],
+)
+def test_thin_svd_in_blocks_against_numpy(monkeypatch, n_channels, n_sources, block_rows):
+    # the first stage's blocks: one, many, a last one narrower than n_channels, wide ones
+    from skf_ref import singular
+
+    monkeypatch.setattr(singular, "_SVD_BLOCK_BYTES", 8 * n_channels * block_rows)
+    rng = np.random.default_rng(n_sources)
+    L = rng.standard_normal((n_channels, n_sources))
+    weak = n_sources >= 4 * n_channels  # else the weak columns make the small singular values
+    if weak:
+        L[:, :3] *= [1e-6, 1e-9, 1e-12]  # their rows of V come from L~^T U / s
+    if n_channels > 3:
+        L -= L.mean(axis=0)  # average reference: rank n_channels - 1
+    U, s, V = singular.thin_svd(L)
+    expected = np.linalg.svd(L, compute_uv=False)
+    rank = min(n_channels - (n_channels > 3), n_sources)
+    assert s.shape == (rank,) and U.shape == (n_channels, rank) and V.shape == (n_sources, rank)
+    assert V.flags.c_contiguous
+    np.testing.assert_allclose(s, expected[:rank], rtol=0, atol=1e-14 * expected[0])
+    np.testing.assert_allclose((U * s) @ V.T, L, rtol=0, atol=1e-14 * np.abs(L).max())
+    np.testing.assert_allclose(V.T @ V, np.eye(rank), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(U.T @ U, np.eye(rank), rtol=0, atol=1e-14)
+    if weak:  # a weak column's row is accurate relative to its own size, not only to eps
+        np.testing.assert_allclose(V[2], (L[:, 2] @ U) / s, rtol=1e-12)
+
+
+@pytest.mark.parametrize("exponent", [0.0, 0.5, 0.75, 1.0, 1.25, 2.0, 0.3, 4.5])
+def test_standardized_means_equal_the_z_of_standardize(exponent):
+    from skf_ref.standardization import standardize, standardized_means
+
+    rng = np.random.default_rng(3)
+    w, whitened = rng.uniform(1e-3, 10.0, (5, 40)), rng.standard_normal((5, 40))
+    weights, z = standardize(w, whitened, exponent)
+    np.testing.assert_array_equal(standardized_means(w, whitened, exponent), z)
+    np.testing.assert_allclose(weights, w**-exponent, rtol=4e-16 * (1 + 4 * exponent))
+    np.testing.assert_allclose(z, whitened * w**-exponent, rtol=4e-16 * (2 + 4 * exponent))
