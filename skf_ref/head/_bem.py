@@ -288,7 +288,7 @@ def _build(root, source_space, montage, cache):
     trans = mne.read_trans(root / TESTING_FILES["trans"], verbose=False)  # head -> MRI
     if trans["from"] != mne.io.constants.FIFF.FIFFV_COORD_HEAD:
         trans = mne.transforms.invert_transform(trans)
-    head_from_mri = np.linalg.inv(trans["trans"])
+    head_from_mri = mne.transforms.invert_transform(trans)["trans"]
     mni_to_head = subject_mni_to_head(root)
     scalp = _surface(bem, _SCALP_ID, head_from_mri)
     info = _electrodes(montage, mni_to_head, scalp)
