@@ -1,0 +1,67 @@
+"""The rule that picks the recommended SKF setting (validation/reproduce/recommend.py)."""
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from validation.reproduce.recommend import MIN_AUC, auc, recommend
+
+COLUMNS = ["exponent", "smoother", "snr_db", "deep_auc", "superficial_auc", "error_mm"]
+LEVELS = (10.0, 20.0, 30.0)
+REPORT = Path(__file__).resolve().parent.parent / "validation" / "report"
+
+
+def _table(candidates):
+    """candidates: (exponent, smoother, deep AUC, superficial AUC, error) at every level."""
+    rows = [(e, s, d, u, err, lvl) for e, s, d, u, err in candidates for lvl in LEVELS]
+    table = pd.DataFrame(rows, columns=[*COLUMNS[:2], *COLUMNS[3:], "snr_db"])
+    return table[COLUMNS]
+
+
+def test_auc_counts_ties_half_and_handles_minus_infinity():
+    assert auc([1.0, 2.0], [0.0, -float("inf")]) == 1.0
+    assert auc([0.0], [0.0]) == 0.5
+    assert auc([-float("inf")], [-float("inf"), 1.0]) == 0.25
+
+
+def test_smallest_error_among_admissible():
+    table = _table(
+        [
+            (0.5, "none", 0.95, 0.95, 12.0),
+            (1.0, "none", 0.95, 0.99, 8.0),
+            (1.25, "rts-standardized", 0.3, 1.0, 2.0),  # best error, not admissible
+        ]
+    )
+    assert recommend(table) == ({"exponent": 1.0, "smoother": None}, True)
+
+
+def test_the_bar_reads_20_and_30_db_only():
+    table = _table([(1.0, "none", 0.95, 0.95, 8.0), (0.5, "none", 0.95, 0.95, 10.0)])
+    table.loc[(table["exponent"] == 1.0) & (table["snr_db"] == 10.0), "deep_auc"] = 0.1
+    assert recommend(table)[0] == {"exponent": 1.0, "smoother": None}
+    table.loc[(table["exponent"] == 1.0) & (table["snr_db"] == 30.0), "deep_auc"] = MIN_AUC - 1e-9
+    assert recommend(table)[0] == {"exponent": 0.5, "smoother": None}
+
+
+def test_ties_go_to_auc_then_simplicity():
+    tied = [(1.0, "rts-state", 0.95, 0.95, 5.0), (0.5, "none", 0.95, 0.95, 5.5)]
+    assert recommend(_table(tied))[0] == {"exponent": 0.5, "smoother": None}
+    better_auc = [(1.0, "rts-state", 0.99, 0.95, 5.0), (0.5, "none", 0.95, 0.95, 5.5)]
+    assert recommend(_table(better_auc))[0] == {"exponent": 1.0, "smoother": "rts-state"}
+
+
+def test_none_admissible_takes_the_best_worse_auc():
+    table = _table([(0.5, "none", 0.8, 0.95, 9.0), (1.5, "rts-state", 0.6, 0.99, 1.0)])
+    assert recommend(table) == ({"exponent": 0.5, "smoother": None}, False)
+
+
+@pytest.mark.skipif(
+    not (REPORT / "recommendation.json").exists(), reason="no committed report recommendation"
+)
+def test_package_default_is_the_reports_recommendation():
+    import skf_ref
+
+    recorded = json.loads((REPORT / "recommendation.json").read_text())
+    assert recorded["setting"] == dict(skf_ref.RECOMMENDED_SETTING)
