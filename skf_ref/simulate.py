@@ -8,8 +8,9 @@ Three steps, each a public function returning a frozen dataclass:
 - :func:`p20n20_scenario` -> :class:`Scenario`: two dipoles (deep thalamic, superficial
   cortical) at MNI coordinates, with overlapping pulses.
 - :func:`simulate` -> :class:`Simulation`: data from the exact dipoles' own forward field
-  (not grid columns) plus white Gaussian noise at a peak SNR; optionally from one source
-  only, with the noise of both (the controls of the reproduction study).
+  (not grid columns) plus Gaussian noise at a peak SNR, white or with the spatial covariance
+  of a real recording; optionally from one source only, with the noise of both (the
+  controls of the reproduction study).
 
 The head model lives in :mod:`skf_ref.head`. ``make_head_model`` and ``HeadModel`` can
 still be reached from here, where the first release put them.
@@ -37,6 +38,7 @@ from .result import readonly
 __all__ = [
     "DEEP_MNI_MM",
     "FORWARDS",
+    "NOISES",
     "SOURCES",
     "SUPERFICIAL_MNI_MM",
     "WINDOWS",
@@ -325,8 +327,9 @@ class Simulation:
     Attributes
     ----------
     Y : ndarray, shape (n_channels, n_times)
-        Noisy data in V: the average-referenced ``Y_clean`` plus white noise (the noise
-        is not re-referenced; it is what ``R = sigma**2 I`` assumes).
+        Noisy data in V: the average-referenced ``Y_clean`` plus noise drawn from
+        ``noise_cov`` (white noise is not re-referenced: it is what ``R = sigma**2 I``
+        assumes; the head's recorded noise is average referenced, as its covariance).
     Y_clean : ndarray, shape (n_channels, n_times)
         Noise-free data in V: the active dipoles' forward field times their waveforms.
     sigma : float
@@ -340,6 +343,11 @@ class Simulation:
         The exact sources (both, whichever are active).
     sources : tuple of str
         The sources active in the data.
+    noise : str
+        ``"white"`` or ``"head"`` (the head's recorded noise covariance).
+    noise_cov : ndarray, shape (n_channels, n_channels)
+        The covariance the noise was drawn from, V²: ``sigma**2 I`` for white noise; the
+        head's covariance scaled to a mean channel variance of ``sigma**2`` otherwise.
     """
 
     Y: np.ndarray = field(repr=False)
@@ -349,10 +357,14 @@ class Simulation:
     snr_db: float
     truth: Truth = field(repr=False)
     sources: tuple = ("deep", "superficial")
+    noise: str = "white"
+    noise_cov: np.ndarray = field(default=None, repr=False)
 
 
 SOURCES = ("deep", "superficial")
 FORWARDS = ("exact", "grid")
+#: Kinds of noise: white, or with the spatial covariance of the head's recording.
+NOISES = ("white", "head")
 
 
 def _grid_gain(head, truth):
@@ -364,12 +376,15 @@ def _grid_gain(head, truth):
     )
 
 
-def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact"):
-    """Simulate the scenario's EEG in the head with white Gaussian noise.
+def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact", noise="white"):
+    """Simulate the scenario's EEG in the head with Gaussian noise.
 
     ``Y_clean = G @ waveforms`` with ``G`` the average-referenced forward field of the exact
     dipoles (MNE's forward at their own positions, float64; not grid columns: no inverse crime);
-    ``Y = Y_clean + sigma * N(0, 1)`` i.i.d. over channels and time.
+    ``Y = Y_clean + sigma * N(0, 1)`` i.i.d. over channels and time (white noise), or
+    ``Y = Y_clean + F N(0, 1)`` with ``F F^T = C`` the head's recorded noise covariance scaled
+    to a mean channel variance of ``sigma**2`` (``noise="head"``: spatially correlated as
+    the recording, i.i.d. over time).
 
     Parameters
     ----------
@@ -387,6 +402,9 @@ def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact"):
     forward : {"exact", "grid"}
         ``"grid"``: the field of each source is its nearest grid position's lead-field
         columns projected on its orientation (an "inverse crime", for comparison only).
+    noise : {"white", "head"}
+        ``"head"`` needs a head with a recorded noise covariance (``head.noise_cov``: the
+        realistic head with the subject's own electrodes, ``montage="sample"``).
 
     Returns
     -------
@@ -406,6 +424,12 @@ def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact"):
     if isinstance(sources, str) or not all(name in SOURCES for name in sources) or not sources:
         raise InputError(f"sources must be a non-empty subset of {list(SOURCES)}, got {sources!r}")
     forward = check_choice("forward", forward, FORWARDS)
+    noise = check_choice("noise", noise, NOISES)
+    if noise == "head" and head.noise_cov is None:
+        raise InputError(
+            "noise='head' needs a head with a recorded noise covariance (head.noise_cov): "
+            "the realistic head with montage='sample'; this head has none"
+        )
     truth = scenario.dipoles(head)
     for name, pos in zip(truth.names, truth.positions, strict=True):
         if head.anatomy.boundary is None:
@@ -428,13 +452,30 @@ def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact"):
     sigma = float(np.abs(gain @ truth.waveforms).max() * 10.0 ** (-snr_db / 20.0))
     active = np.array([name in sources for name in truth.names], dtype=float)
     Y_clean = gain @ (active[:, None] * truth.waveforms)
-    noise = np.random.default_rng(seed).standard_normal(Y_clean.shape)
+    rng = np.random.default_rng(seed)
+    if noise == "white":
+        noise_cov = sigma**2 * np.eye(len(Y_clean))
+        drawn = sigma * rng.standard_normal(Y_clean.shape)
+    else:
+        noise_cov = head.noise_cov * (sigma**2 / np.mean(np.diag(head.noise_cov)))
+        factor = _covariance_factor(noise_cov)
+        drawn = factor @ rng.standard_normal((factor.shape[1], Y_clean.shape[1]))
     return Simulation(
-        Y=readonly(Y_clean + sigma * noise),
+        Y=readonly(Y_clean + drawn),
         Y_clean=readonly(Y_clean),
         sigma=sigma,
         times=truth.times,
         snr_db=snr_db,
         truth=truth,
         sources=tuple(name for name in truth.names if name in sources),
+        noise=noise,
+        noise_cov=readonly(noise_cov),
     )
+
+
+def _covariance_factor(C):
+    """``F`` with ``F F^T = C`` for a symmetric positive semi-definite ``C`` (eigh; the
+    directions of eigenvalues at rounding level, an average reference's, left out)."""
+    lam, U = np.linalg.eigh(C)
+    keep = lam > lam[-1] * 1e-12
+    return U[:, keep] * np.sqrt(lam[keep])

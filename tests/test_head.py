@@ -232,3 +232,38 @@ def test_cache_folder(monkeypatch, tmp_path):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     if os.name == "posix" and not os.uname().sysname == "Darwin":
         assert heads.cache_dir() == tmp_path / "xdg" / "skf_ref"
+
+
+def test_the_subjects_own_electrodes_and_noise_covariance(tmp_path):
+    """Read from files in the dataset's layout, made here: MEG and EEG channels, one EEG
+    channel bad in the covariance (as EEG 053 is in the sample subject's)."""
+    from skf_ref.head import SENSOR_FILES, subject_electrodes
+
+    rng = np.random.default_rng(0)
+    names = ["MEG 0111", "EEG 001", "EEG 002", "EEG 003", "EEG 004", "EEG 005"]
+    types = ["mag"] + ["eeg"] * 5
+    info = mne.create_info(names, 100.0, types)
+    positions = rng.normal(0, 0.05, (5, 3)) + [0, 0, 0.08]
+    for k, pos in enumerate(positions, start=1):
+        info["chs"][k]["loc"][:3] = pos
+        info["chs"][k]["coord_frame"] = mne.io.constants.FIFF.FIFFV_COORD_HEAD
+    raw_path = tmp_path / SENSOR_FILES["raw"]
+    raw_path.parent.mkdir(parents=True)
+    mne.io.RawArray(rng.standard_normal((6, 200)) * 1e-6, info, verbose=False).save(raw_path)
+    A = rng.standard_normal((6, 6)) * 1e-6
+    cov = mne.Covariance(A @ A.T, names, bads=["EEG 003"], projs=[], nfree=100)
+    cov_path = tmp_path / SENSOR_FILES["cov"]
+    cov_path.parent.mkdir(parents=True)
+    cov.save(cov_path, verbose=False)
+
+    info, C = subject_electrodes(tmp_path)
+    assert info.ch_names == ["EEG 001", "EEG 002", "EEG 004", "EEG 005"]  # EEG, not bad
+    located = np.array([ch["loc"][:3] for ch in info["chs"]])
+    np.testing.assert_allclose(located, positions[[0, 1, 3, 4]])
+    keep = [1, 2, 4, 5]
+    P = np.eye(4) - 0.25
+    np.testing.assert_allclose(C, P @ (A @ A.T)[np.ix_(keep, keep)] @ P, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(C @ np.ones(4), 0.0, atol=1e-12 * np.abs(C).max())
+    assert any("Average" in proj["desc"] for proj in info["projs"])
+    with pytest.raises(ValueError, match="montage='sample'.*needs conductor='bem'"):
+        heads.make_head("sphere", "anatomical", montage="sample")

@@ -212,3 +212,44 @@ def test_too_coarse_a_grid_cannot_hold_the_scenario(scenario):
     coarse = make_head_model(40)
     with pytest.raises(ValueError, match="no grid position within 15 mm .* larger n_positions"):
         simulate(coarse, scenario, 20.0, seed=0)
+
+
+def test_noise_with_the_heads_recorded_covariance(head, scenario):
+    from dataclasses import replace
+
+    rng = np.random.default_rng(5)
+    n = head.n_channels
+    A = rng.standard_normal((n, n)) * rng.uniform(0.1, 3.0, n)  # correlated, unequal channels
+    P = np.eye(n) - 1.0 / n
+    recorded = replace(head, noise_cov=P @ (A @ A.T) @ P * 1e-12)  # V², average referenced
+    sim = simulate(recorded, scenario, 20.0, seed=1, noise="head")
+    white = simulate(head, scenario, 20.0, seed=1)
+    assert sim.noise == "head" and sim.sigma == white.sigma
+    # the head's covariance scaled to a mean channel variance of sigma**2
+    np.testing.assert_allclose(np.mean(np.diag(sim.noise_cov)), sim.sigma**2, rtol=1e-12)
+    np.testing.assert_allclose(
+        sim.noise_cov / recorded.noise_cov, sim.noise_cov[0, 0] / recorded.noise_cov[0, 0]
+    )
+    drawn = sim.Y - sim.Y_clean
+    np.testing.assert_allclose(drawn.sum(axis=0), 0.0, atol=1e-9 * sim.sigma)  # referenced
+    # white noise is what R = sigma**2 I says, and the same draws as before
+    np.testing.assert_array_equal(white.noise_cov, white.sigma**2 * np.eye(n))
+
+
+def test_the_drawn_noise_has_the_covariance():
+    from skf_ref.simulate import _covariance_factor
+
+    rng = np.random.default_rng(0)
+    A = rng.standard_normal((6, 6))
+    P = np.eye(6) - 1.0 / 6
+    C = P @ (A @ A.T) @ P
+    F = _covariance_factor(C)
+    assert F.shape == (6, 5)  # the reference's null direction left out
+    np.testing.assert_allclose(F @ F.T, C, atol=1e-12 * np.abs(C).max())
+
+
+def test_head_noise_needs_a_head_with_a_recorded_covariance(head, scenario):
+    with pytest.raises(ValueError, match="noise='head' needs a head with a recorded noise"):
+        simulate(head, scenario, 20.0, seed=0, noise="head")
+    with pytest.raises(ValueError, match="noise must be one of"):
+        simulate(head, scenario, 20.0, seed=0, noise="pink")

@@ -17,8 +17,22 @@ Whether a head can hold the scenario is checked where the two meet, in
 :func:`skf_ref.simulate.simulate`.
 """
 
-from ._bem import LABELS, VOLUME_SPACING_MM, make_realistic_head, subject_mni_to_head
-from ._data import CACHE_ENV, TESTING_FILES, cache_dir, find_testing_data, input_digest
+from ._bem import (
+    LABELS,
+    SUBJECT_MONTAGE,
+    VOLUME_SPACING_MM,
+    make_realistic_head,
+    subject_electrodes,
+    subject_mni_to_head,
+)
+from ._data import (
+    CACHE_ENV,
+    SENSOR_FILES,
+    TESTING_FILES,
+    cache_dir,
+    find_testing_data,
+    input_digest,
+)
 from ._model import CONDUCTORS, SOURCE_SPACES, Anatomy, HeadModel
 from ._sphere import (
     ANATOMICAL_SPACING_MM,
@@ -44,9 +58,11 @@ __all__ = [
     "LABELS",
     "MINDIST_MM",
     "MIN_POSITIONS",
+    "SENSOR_FILES",
     "SHELL_DEPTH_MM",
     "SOURCE_SPACES",
     "SPHERE_ANATOMICAL_SPACING_MM",
+    "SUBJECT_MONTAGE",
     "TESTING_FILES",
     "THALAMUS_MNI_MM",
     "THALAMUS_RADIUS_MM",
@@ -64,6 +80,7 @@ __all__ = [
     "make_realistic_head",
     "make_sphere_head",
     "required_memory",
+    "subject_electrodes",
     "subject_mni_to_head",
     "template_mni_to_head",
 ]
@@ -87,6 +104,8 @@ def make_head(
     n_positions : int
         Positions of the sphere's volume grid (the other source spaces have fixed spacings).
     montage : str
+        A built-in montage, or ``"sample"`` (BEM only: the subject's own electrodes and its
+        recording's noise covariance, ``head.noise_cov``).
     testing_data : path-like or None
         Root of MNE's testing dataset (BEM heads only; None: MNE's lookup, no download).
     cache_dir : path-like or None
@@ -101,10 +120,15 @@ def make_head(
     >>> make_head("sphere", "anatomical").source_space
     'anatomical'
     """
-    from ..checks import check_choice
+    from ..checks import InputError, check_choice
 
     check_choice("conductor", conductor, CONDUCTORS)
     check_choice("source_space", source_space, SOURCE_SPACES)
     if conductor == "sphere":
+        if montage == SUBJECT_MONTAGE:
+            raise InputError(
+                f"montage={SUBJECT_MONTAGE!r} (the sample subject's own electrodes) needs "
+                "conductor='bem', the subject's head; the sphere takes a built-in montage"
+            )
         return make_sphere_head(source_space, n_positions, montage)
     return make_realistic_head(testing_data, source_space, montage, cache_dir)

@@ -16,7 +16,9 @@ never downloaded):
   sphere's volume grid. Both grids are axis aligned in the subject's MRI coordinates.
 - **Sensors**: the montage's channels at their MNI positions in MNE's 10-05 template (the
   Colin27 positions MNE ships), mapped into the subject by :func:`subject_mni_to_head` and
-  moved to the nearest point of the scalp surface.
+  moved to the nearest point of the scalp surface; or, with the montage
+  :data:`SUBJECT_MONTAGE` (``"sample"``), the subject's own electrodes as digitized on its
+  head, with the noise covariance of its recording (:func:`subject_electrodes`).
 - **MNI coordinates**: :func:`subject_mni_to_head`, the inverse of the affine
   :func:`mne.head_to_mni` applies (the subject's ``talairach.xfm``, its MRI geometry and
   the head <-> MRI transform ``sample_audvis_trunc-trans.fif``).
@@ -29,23 +31,33 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import os
 import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..checks import InputError, check_choice
+from ..checks import InputError, check_choice, check_instance
 from ..files import atomic_path
 from ..result import readonly
-from ._data import SUBJECT, TESTING_FILES, cache_dir, find_testing_data, input_digest
+from ._data import (
+    SENSOR_FILES,
+    SUBJECT,
+    TESTING_FILES,
+    cache_dir,
+    find_testing_data,
+    input_digest,
+)
 from ._model import Anatomy, HeadModel, apply_affine, finish_forward, with_average_reference
 from ._sphere import ANATOMICAL_SPACING_MM, MINDIST_MM, check_montage
 
 __all__ = [
     "CACHE_FORMAT",
     "LABELS",
+    "SUBJECT_MONTAGE",
     "VOLUME_SPACING_MM",
     "make_realistic_head",
+    "subject_electrodes",
     "subject_mni_to_head",
 ]
 
@@ -59,6 +71,8 @@ LABELS = {
 }
 #: Spacing (mm) of the volume grid filling the inner skull: 2959 positions.
 VOLUME_SPACING_MM = 7.8
+#: The montage name of the subject's own electrodes, with its recording's noise covariance.
+SUBJECT_MONTAGE = "sample"
 #: Bumped when what the cache holds changes meaning.
 CACHE_FORMAT = 1
 _SCALP_ID = 4  # FIFFV_BEM_SURF_ID_HEAD
@@ -77,7 +91,9 @@ def make_realistic_head(
         Root of MNE's testing dataset; None: MNE's own lookup, without downloading.
     source_space : {"anatomical", "volume"}
     montage : str
-        A built-in montage whose channel names are 10-05 names (e.g. ``"biosemi64"``).
+        A built-in montage whose channel names are 10-05 names (e.g. ``"biosemi64"``), or
+        :data:`SUBJECT_MONTAGE` (``"sample"``): the subject's own electrodes, with the noise
+        covariance of its recording as ``head.noise_cov`` (:func:`subject_electrodes`).
     cache_dir : path-like or None
         Where the forward models are cached (:func:`skf_ref.head.cache_dir`).
 
@@ -89,11 +105,12 @@ def make_realistic_head(
     Raises
     ------
     skf_ref.InputError
-        The dataset is not found (say where it is with ``testing_data``), or a channel has
-        no 10-05 position.
+        The dataset is not found (say where it is with ``testing_data``), lacks the
+        recording the ``"sample"`` montage needs, or a channel has no 10-05 position.
     """
     check_choice("source_space", source_space, ("anatomical", "volume"))
-    check_montage(montage)
+    if montage != SUBJECT_MONTAGE:
+        check_montage(montage)
     root = find_testing_data(testing_data)
     if root is None:
         raise InputError(
@@ -101,6 +118,13 @@ def make_realistic_head(
             "(the one mne.datasets.testing.data_path() returns; on the command line "
             "--mne-testing-data DIR), MNE did not find it and nothing is downloaded"
         )
+    if montage == SUBJECT_MONTAGE:
+        missing = [rel for rel in SENSOR_FILES.values() if not (root / rel).is_file()]
+        if missing:
+            raise InputError(
+                f"montage={SUBJECT_MONTAGE!r} needs the subject's recording and noise "
+                f"covariance from MNE's testing dataset; {str(root)!r} lacks {missing[0]}"
+            )
     return _build(str(root), source_space, montage, str(_data_cache_dir(cache_dir)))
 
 
@@ -211,6 +235,50 @@ def _electrodes(montage, mni_to_head, scalp):
     return with_average_reference(info)
 
 
+def subject_electrodes(testing_data):
+    """The sample subject's own EEG electrodes and the noise covariance of its recording.
+
+    The EEG channels of ``SSS/sample_audvis_trunc_raw_sss.fif`` that neither the recording
+    nor the covariance ``MEG/sample/sample_audvis_trunc-cov.fif`` marks bad (the covariance
+    marks EEG 053: 59 of the 60 electrodes remain), at their digitized positions (head
+    coordinates); and the covariance's EEG part for them, average referenced:
+    ``P C P`` with ``P = I - 1 1^T / n`` (rank ``n - 1``), in V².
+
+    Parameters
+    ----------
+    testing_data : path-like
+        Root of MNE's testing dataset.
+
+    Returns
+    -------
+    info : mne.Info
+        EEG channels with positions and an (inactive) average-reference projection.
+    noise_cov : ndarray, shape (n_channels, n_channels)
+        Symmetric positive semi-definite, average referenced.
+    """
+    import mne
+
+    check_instance("testing_data", testing_data, (str, os.PathLike), "a folder path")
+    root = Path(testing_data)
+    recorded = mne.io.read_info(root / SENSOR_FILES["raw"], verbose=False)
+    cov = mne.read_cov(root / SENSOR_FILES["cov"], verbose=False)
+    bads = set(recorded["bads"]) | set(cov["bads"])
+    eeg = mne.pick_types(recorded, meg=False, eeg=True, exclude=[])
+    names = [
+        recorded.ch_names[k]
+        for k in eeg
+        if recorded.ch_names[k] not in bads and recorded.ch_names[k] in cov.ch_names
+    ]
+    ch_pos = {name: recorded["chs"][recorded.ch_names.index(name)]["loc"][:3] for name in names}
+    info = mne.create_info(names, 10000.0, "eeg")
+    info.set_montage(mne.channels.make_dig_montage(ch_pos=ch_pos, coord_frame="head"))
+    index = [cov.ch_names.index(name) for name in names]
+    C = np.asarray(cov.data, dtype=float)[np.ix_(index, index)]
+    P = np.eye(len(names)) - 1.0 / len(names)
+    C = P @ C @ P
+    return with_average_reference(info), readonly(0.5 * (C + C.T))
+
+
 def _source_space(root, bem, source_space):
     import mne
 
@@ -291,7 +359,11 @@ def _build(root, source_space, montage, cache):
     head_from_mri = mne.transforms.invert_transform(trans)["trans"]
     mni_to_head = subject_mni_to_head(root)
     scalp = _surface(bem, _SCALP_ID, head_from_mri)
-    info = _electrodes(montage, mni_to_head, scalp)
+    noise_cov = None
+    if montage == SUBJECT_MONTAGE:
+        info, noise_cov = subject_electrodes(root)
+    else:
+        info = _electrodes(montage, mni_to_head, scalp)
     fwd = _forward(root, cache, bem, info, trans, source_space, montage)
     fwd, leadfield = finish_forward(fwd, len(info.ch_names))
     inner = _surface(bem, _INNER_SKULL_ID, head_from_mri)
@@ -327,4 +399,5 @@ def _build(root, source_space, montage, cache):
         conductor_kind="bem",
         source_space=source_space,
         anatomy=anatomy,
+        noise_cov=noise_cov,
     )

@@ -22,6 +22,7 @@ from ..checks import InputError, InputTypeError, describe
 __all__ = [
     "CACHE_ENV",
     "SUBJECT",
+    "SENSOR_FILES",
     "TESTING_FILES",
     "cache_dir",
     "find_testing_data",
@@ -36,6 +37,14 @@ TESTING_FILES = {
     "t1": "subjects/sample/mri/T1.mgz",
     "talairach": "subjects/sample/mri/transforms/talairach.xfm",
     "trans": "MEG/sample/sample_audvis_trunc-trans.fif",
+}
+#: Files of the same dataset that the subject's own electrodes and noise need (montage
+#: ``"sample"``, :data:`skf_ref.head.SUBJECT_MONTAGE`): one second of the subject's recording
+#: (its info holds the 60 EEG electrodes digitized on the subject's head) and the noise
+#: covariance estimated from it.
+SENSOR_FILES = {
+    "raw": "SSS/sample_audvis_trunc_raw_sss.fif",
+    "cov": "MEG/sample/sample_audvis_trunc-cov.fif",
 }
 #: Environment variable naming the cache folder (overrides the platform default).
 CACHE_ENV = "SKF_REF_CACHE_DIR"

@@ -157,6 +157,9 @@ class HeadModel:
         and thalamus).
     anatomy : Anatomy
         MNI placement, labels and the brain compartment's boundary.
+    noise_cov : ndarray, shape (n_channels, n_channels), or None
+        The noise covariance of a recording made with these sensors, average referenced
+        (V²), where the head has one (the sample subject's own electrodes); else None.
     """
 
     leadfield: np.ndarray = field(repr=False)
@@ -171,6 +174,7 @@ class HeadModel:
     conductor_kind: str = "sphere"
     source_space: str = "volume"
     anatomy: Anatomy | None = field(default=None, repr=False)
+    noise_cov: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def n_positions(self):

@@ -243,9 +243,10 @@ def _versions():
 
 
 def _dataset_digest(testing_data):
-    from skf_ref.head import TESTING_FILES, input_digest
+    from skf_ref.head import SENSOR_FILES, TESTING_FILES, input_digest
 
     files = {name: Path(testing_data) / rel for name, rel in TESTING_FILES.items()}
+    files.update({name: Path(testing_data) / rel for name, rel in SENSOR_FILES.items()})
     return input_digest(files, {})
 
 
