@@ -16,6 +16,7 @@ from pathlib import Path
 
 from skf_ref.files import atomic_path
 
+from .baselines import baseline_files, describe, run_baselines
 from .cells import best_cell, result_files, run_cell_sweeps, run_variants
 from .figures import make_figures, save_source_placement
 from .overview import Overview, overview_text
@@ -246,6 +247,30 @@ def _generated(elapsed, jobs, computed, total):
     )
 
 
+def _specificity(settings, out, n_jobs, results, common):
+    """Run the baselines, check them against the sweeps, apply the rule, draw the figures.
+
+    Returns
+    -------
+    headline, details : str
+        The report's sections (:func:`specificity.specificity_text`).
+    """
+    from . import specificity
+    from .recommend import CHOICE_SEEDS
+
+    raw = run_baselines(settings, out, n_jobs, **common)
+    specificity.check_against_sweeps(raw, results)
+    chosen = raw["seed"].isin(CHOICE_SEEDS)
+    choice = specificity.recommendation(raw[chosen])
+    specificity.write_recommendation(out, *choice[:2], raw.loc[chosen, "seed"].unique())
+    label = specificity.setting_label(choice[0])
+    figures = specificity.write_figures(raw[~chosen], settings, out, label)
+    with atomic_path(out / "baselines" / "scores.csv") as tmp:
+        table = specificity.scores(raw[~chosen])
+        table.to_csv(tmp, index=False, float_format="%.6g", lineterminator="\n")
+    return specificity.specificity_text(table, choice, settings, figures)
+
+
 _NO_DATASET = (
     "reproduce: the BEM cells need MNE's testing dataset: give --mne-testing-data DIR (DIR: "
     "the folder mne.datasets.testing.data_path() returns; nothing is downloaded); running "
@@ -283,9 +308,9 @@ def main(argv=None):
         return 2
     if testing is None:
         print(_NO_DATASET, file=sys.stderr)
-    wanted = manifest(settings, testing)
+    wanted = dict(manifest(settings, testing), baselines=describe(settings))
     names = result_files(settings)
-    reason = prepare_out(out, wanted, args.fresh, names)
+    reason = prepare_out(out, wanted, args.fresh, names + baseline_files(settings))
     if reason is not None:
         print(f"reproduce: deleted the previous results ({reason})", file=sys.stderr)
     before = sum(len(read_results(out / name)) for name in names)
@@ -300,6 +325,7 @@ def main(argv=None):
     if not settings.quick:
         best_cell_ = next(cell for cell in settings.cells if cell.name == best)
         variants = run_variants(best_cell_, settings, out, args.jobs, progress, **common)
+    headline, details = _specificity(settings, out, args.jobs, results, common)
     total = sum(len(read_results(out / name)) for name in names)
     skipped = None if testing is not None else "MNE's testing dataset was not given or found"
     data = Overview(
@@ -315,6 +341,8 @@ def main(argv=None):
     elapsed = time.perf_counter() - start
     generated = _generated(elapsed, args.jobs, total - before, total)
     title, rest = text.split("\n", 1)
+    before_rules, rules = rest.split("\n## Decision rules\n", 1)
+    rest = f"{before_rules}\n{headline}\n## Decision rules\n{rules.rstrip()}\n\n{details}"
     with atomic_path(out / "REPORT.md") as tmp:
         tmp.write_text(f"{title}\n\n{generated}\n{rest}")
     for cell in settings.cells:
