@@ -36,6 +36,8 @@ _HOMES = {
     "StandardizedKalmanFilter": "kalman",
     "Reconstruction": "result",
     "reconstruct": "inverse",
+    "PAPER_SETTING": "inverse",
+    "RECOMMENDED_SETTING": "inverse",
     "apply_skf": "apply",
     "prior_variance": "priors",
     "evolution_variance": "priors",

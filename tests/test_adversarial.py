@@ -295,7 +295,7 @@ def _cli(*arguments, timeout=120):
         (["demo", "--exponent", "1e6"], "exponent=1e+06 is too large"),
         (
             ["demo", "--source-space", "volume", "--positions", "2000000"],
-            "--positions 2000000 needs",
+            "--positions: n_positions 2000000 needs",
         ),
         (["sweep", "--pm-snr-db", "4000"], "argument --pm-snr-db: must be within +-300 dB"),
         (["sweep", "--positions", "4000000"], "--positions 4000000"),

@@ -28,62 +28,59 @@ def demo_dir(tmp_path_factory):
 
 
 def test_demo_writes_figures_arrays_and_metrics(demo_dir, capsys):
-    names = sorted(p.name for p in demo_dir.iterdir())
-    assert names == [
-        "metrics.csv",
-        "metrics_columns.csv",
-        "projections_filtered.png",
-        "projections_smoothed.png",
-        "reconstruction.npz",
-        "settings.json",
-        "time_courses_filtered.png",
-        "time_courses_smoothed.png",
-    ]
+    from skf_ref.demo import OUTPUTS
+
+    assert sorted(p.name for p in demo_dir.iterdir()) == sorted(OUTPUTS)
     for png in demo_dir.glob("*.png"):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
     arrays = np.load(demo_dir / "reconstruction.npz")
-    n_sources, n_times = arrays["z_filtered"].shape
+    n_sources, n_times = arrays["z_skf"].shape
     assert n_sources == 3 * len(arrays["positions"]) and n_times == 41
-    assert not np.array_equal(arrays["z_filtered"], arrays["z_smoothed"])
+    assert arrays["amplitude_sloreta_deep_absent"].shape == (len(arrays["positions"]), 41)
+    assert not np.array_equal(arrays["z_skf"], arrays["z_paper"])
+    assert not np.array_equal(arrays["Y"], arrays["Y_deep_absent"])
     table = pd.read_csv(demo_dir / "metrics.csv", index_col=0)
-    assert list(table.columns) == ["filtered", "smoothed"]
+    methods = ("skf", "paper", "sLORETA")
+    assert list(table.columns) == [
+        f"{m}, {d}" for m in methods for d in ("present", "deep absent")
+    ]
     columns = pd.read_csv(demo_dir / "metrics_columns.csv", index_col=0)
     assert list(columns.index) == list(table.index)  # every metric explained
     assert set(columns["unit"]) >= {"mm", "dB", "bool"}
     settings = json.loads((demo_dir / "settings.json").read_text())
     # one position count, the grid's own, everywhere it is recorded
-    assert settings["n_positions"] == len(arrays["positions"]) == int(arrays["n_positions"])
+    assert settings["n_positions"] == len(arrays["positions"])
     assert settings["positions_requested"] == 500
     assert settings["machine"]["versions"]["skf_ref"] == skf_ref.__version__
     assert settings["machine"]["blas"] and settings["seed"] == 0
     assert settings["head_kind"] == "sphere" and settings["source_space"] == "volume"
-    for name in ("snr_db", "pm_snr_db", "ep_snr_db", "exponent", "theta0", "q", "sigma"):
-        assert float(arrays[name]) == settings[name], name
-    assert str(arrays["smoother"]) == settings["smoother"] == "rts-standardized"
+    # the recommended setting by default, the paper's beside it
+    assert {k: settings[k] for k in ("exponent", "smoother")} == skf_ref.RECOMMENDED_SETTING
+    assert settings["paper_setting"] == dict(skf_ref.PAPER_SETTING)
 
 
 def test_demo_prints_the_metrics_table(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path), *SMALL, "--snr-db", "20"]) == 0
     printed = capsys.readouterr().out
     assert "SNR 20 dB, EP-SNR 20 dB, PM-SNR 0 dB" in printed
-    assert "on 480 positions" in printed and "superficial_error_mm" in printed
+    assert "480 positions" in printed and "superficial_error_mm" in printed
+    for label in ("exponent 0.5, no smoother", "(paper)", "sLORETA", "deep absent"):
+        assert label in printed, label
 
 
-def test_demo_without_a_smoother_runs_the_filter_only(tmp_path, capsys):
-    assert main(["demo", "--out", str(tmp_path), *SMALL, "--smoother", "none"]) == 0
-    assert "smoothed" not in capsys.readouterr().out
-    assert sorted(p.name for p in tmp_path.glob("*.png")) == [
-        "projections_filtered.png",
-        "time_courses_filtered.png",
-    ]
-    assert json.loads((tmp_path / "settings.json").read_text())["smoother"] is None
+def test_demo_runs_the_chosen_setting_beside_the_papers(tmp_path, capsys):
+    arguments = ["--exponent", "1", "--smoother", "rts-state"]
+    assert main(["demo", "--out", str(tmp_path), *SMALL, *arguments]) == 0
+    assert "SKF, exponent 1, rts-state, present" in capsys.readouterr().out
+    settings = json.loads((tmp_path / "settings.json").read_text())
+    assert (settings["exponent"], settings["smoother"]) == (1.0, "rts-state")
 
 
 def test_demo_says_which_head_it_used(tmp_path, monkeypatch, capsys):
     import mne
 
     monkeypatch.setattr(mne.datasets.testing, "data_path", lambda **kwargs: tmp_path / "none")
-    assert main(["demo", "--out", str(tmp_path), "--quiet", "--smoother", "none"]) == 0
+    assert main(["demo", "--out", str(tmp_path), "--quiet"]) == 0
     printed = capsys.readouterr().out
     assert "head: sphere" in printed and "--mne-testing-data DIR" in printed
     settings = json.loads((tmp_path / "settings.json").read_text())
@@ -91,7 +88,7 @@ def test_demo_says_which_head_it_used(tmp_path, monkeypatch, capsys):
     assert settings["head_kind"] == "sphere" and settings["source_space"] == "anatomical"
     assert settings["positions_requested"] is None
     assert main(["demo", "--out", str(tmp_path), "--head", "realistic", "--quiet"]) == 2
-    assert "--head realistic needs MNE's testing dataset" in capsys.readouterr().err
+    assert "--head: head='realistic' needs MNE's testing dataset" in capsys.readouterr().err
 
 
 def test_bare_command_prints_help_and_version(capsys):
@@ -122,7 +119,7 @@ def test_every_option_shows_its_default(command, capsys):
         (["demo", "--montage", "nope"], "montage"),
         (["demo", "--positions", "10"], "argument --positions: must be >= 420, got 10"),
         (["demo", "--positions", "2.5"], "argument --positions: must be an integer"),
-        (["demo", "--positions", "500"], "--positions: sizes the sphere's volume grid only"),
+        (["demo", "--positions", "500"], "--positions: n_positions sizes the sphere's volume"),
         (["demo", "--seed", "-1"], "argument --seed: must be >= 0, got -1"),
         (["demo", "--smoother", "kalman"], "invalid choice"),
         (["demo", "--mne-testing-data", "."], "--mne-testing-data: testing_data must be MNE's"),

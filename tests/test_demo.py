@@ -1,0 +1,63 @@
+"""The demo as a library function (:func:`skf_ref.demo.run_demo`): what the CLI calls."""
+
+import numpy as np
+import pytest
+
+import skf_ref
+from skf_ref.demo import DATA, OUTPUTS, run_demo
+
+SMALL = dict(head="sphere", source_space="volume", n_positions=500)
+
+
+@pytest.fixture(scope="module")
+def demo():
+    return run_demo(**SMALL, verbose=False)
+
+
+def test_three_methods_on_the_data_with_and_without_the_deep_source(demo):
+    assert set(demo.estimates) == {(m, d) for m in demo.methods for d in DATA}
+    assert set(demo.reconstructions) == {(m, d) for m in ("skf", "paper") for d in DATA}
+    for amplitude in demo.estimates.values():
+        assert amplitude.shape == (demo.head.n_positions, 41) and (amplitude >= 0).all()
+    # the control is the same noise without the deep source's field
+    present, absent = demo.simulations["present"], demo.simulations["deep absent"]
+    noise = present.Y - present.Y_clean
+    np.testing.assert_allclose(
+        absent.Y - absent.Y_clean, noise, rtol=0, atol=1e-12 * present.sigma
+    )
+    assert absent.sources == ("superficial",) and present.sigma == absent.sigma
+    assert list(demo.metrics.columns) == [f"{m}, {d}" for m in demo.methods for d in DATA]
+
+
+def test_the_settings_are_the_recommended_and_the_papers(demo):
+    skf, paper = demo.reconstructions["skf", "present"], demo.reconstructions["paper", "present"]
+    assert (skf.exponent, skf.smoother) == tuple(skf_ref.RECOMMENDED_SETTING.values())
+    assert (paper.exponent, paper.smoother) == tuple(skf_ref.PAPER_SETTING.values())
+    assert demo.settings["theta0"] == skf.theta0 and demo.settings["q"] == skf.q
+
+
+def test_nothing_is_written_without_a_folder_and_everything_with_one(demo, tmp_path):
+    from skf_ref.demo import write
+
+    write(demo, tmp_path / "new")
+    assert sorted(p.name for p in (tmp_path / "new").iterdir()) == sorted(OUTPUTS)
+
+
+def test_progress_goes_to_the_log_unless_quiet(capfd):
+    run_demo(**SMALL, verbose=False)
+    assert capfd.readouterr().err == ""
+    run_demo(**SMALL, verbose=True)
+    err = capfd.readouterr().err
+    assert "head: 4-shell sphere, volume grid" in err and "SKF and sLORETA:" in err
+
+
+def test_bad_input_names_the_parameter_before_any_work(tmp_path):
+    (tmp_path / "file").write_text("")
+    with pytest.raises(skf_ref.InputError, match="out must be a folder"):
+        run_demo(tmp_path / "file" / "sub", **SMALL)
+    with pytest.raises(skf_ref.InputError, match="head must be one of"):
+        run_demo(head="fem")
+    with pytest.raises(skf_ref.InputError, match="n_positions sizes the sphere's volume grid"):
+        run_demo(head="sphere", n_positions=500)
+    with pytest.raises(skf_ref.InputError, match="verbose must be"):
+        run_demo(**SMALL, verbose="loud")
