@@ -226,17 +226,21 @@ def apply_skf(
     (``pick_ori=None``) or the three components (``"vector"``); fixed orientation gives the
     signed estimate.
 
-    Which setting. The defaults are the original SKF, exponent 0.5 without smoothing,
-    because it localizes a lone source where it is. On an MNE sphere forward (12 mm volume
-    grid of 1254 positions, biosemi64; one dipole at a time at 9 positions from the bottom
-    of the grid to its top, 30 averaged epochs, peak SNR 20 dB; ``tests/test_apply.py``
-    measures this) the peak at the pulse's maximum was, median (range) over the dipoles:
-    17 mm (0-69) off with exponent 0.5 and no smoothing, 17 mm (0-51) with ``"rts-state"``,
-    24 mm (17-74) with ``"rts-standardized"``, and 50 mm (29-123) with exponent 1.25 and no
-    smoothing (the maximum goes to weakly seen positions, the bottom of the grid). The
-    largest errors belong to the deepest dipoles: free orientation standardizes each of a
-    position's three columns on its own (docs/model.md §1), which is not rotation
-    invariant and misplaces deep sources by a grid step or more even without noise.
+    Which setting. The defaults are the setting the package recommends
+    (:data:`skf_ref.RECOMMENDED_SETTING`): the original SKF, exponent 0.5 without smoothing.
+    In the study it tells a deep source present from absent about as well as MNE's sLORETA,
+    where the paper's setting (``**skf_ref.PAPER_SETTING``) does not
+    (validation/report/REPORT.md, "Which setting, and against what"). On an MNE sphere
+    forward (12 mm volume grid of 1254 positions, biosemi64; one dipole at a time at 9
+    positions from the bottom of the grid to its top, 30 averaged epochs, peak SNR 20 dB;
+    ``tests/test_apply.py`` measures this) the peak at the pulse's maximum was, median
+    (range) over the dipoles: 17 mm (0-69) off with exponent 0.5 and no smoothing, 17 mm
+    (0-51) with ``"rts-state"``, 24 mm (17-74) with ``"rts-standardized"``, and 50 mm
+    (29-123) with exponent 1.25 and no smoothing (the maximum goes to weakly seen positions,
+    the bottom of the grid). The largest errors belong to the deepest dipoles: free
+    orientation standardizes each of a position's three columns on its own (docs/model.md
+    §1), which is not rotation invariant and misplaces deep sources by a grid step or more
+    even without noise.
 
     Parameters
     ----------

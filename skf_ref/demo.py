@@ -27,7 +27,8 @@ import numpy as np
 from ._logging import logger, progress, verbosity
 from .checks import InputError, check_choice, check_int
 from .files import atomic_path
-from .inverse import PAPER_SETTING, SMOOTHERS
+from .inverse import SMOOTHERS
+from .settings import PAPER_SETTING
 
 __all__ = ["DATA", "HEADS", "OUTPUTS", "Demo", "run_demo"]
 

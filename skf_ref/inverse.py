@@ -1,27 +1,15 @@
 """The public entry point :func:`reconstruct`: check once, build the model, pick a path."""
 
-from types import MappingProxyType
-
 import numpy as np
 
 from . import dense, kalman, memory, spectral
 from .checks import InputError, check_choice, check_real
 from .model import StateSpaceModel
 
-__all__ = ["METHODS", "PAPER_SETTING", "RECOMMENDED_SETTING", "SMOOTHERS", "reconstruct"]
+__all__ = ["METHODS", "SMOOTHERS", "reconstruct"]
 
 SMOOTHERS = (None, "rts-standardized", "rts-state")
 METHODS = ("auto", "filterpy", "dense", "spectral")
-#: The setting the package recommends and defaults to: the original SKF, exponent 0.5
-#: without smoothing. Chosen by a rule committed before the numbers it read (the study's
-#: "Which setting, and against what", validation/report/REPORT.md): of the 12 exponent x
-#: smoother settings, the one that separates a deep source present from absent (ROC area
-#: >= 0.9 at 20 and 30 dB) with the smallest localization error.
-RECOMMENDED_SETTING = MappingProxyType({"exponent": 0.5, "smoother": None})
-#: The paper's setting (exponent 1.25, its smoother), one argument away:
-#: ``reconstruct(L, Y, ..., **PAPER_SETTING)``. In the study it "detects" a deep source that
-#: is absent from the data in most runs at 20-30 dB.
-PAPER_SETTING = MappingProxyType({"exponent": 1.25, "smoother": "rts-standardized"})
 
 
 def _check_memory(method, smoother, model, n_times, memory_limit):
@@ -74,9 +62,9 @@ def reconstruct(
     without any error.
 
     Which setting to use. The defaults, exponent 0.5 without smoothing (the original SKF,
-    :data:`RECOMMENDED_SETTING`), are what the study recommends: on a realistic head with
+    :data:`skf_ref.RECOMMENDED_SETTING`), are what the study recommends: on a realistic head with
     cortex + thalamus they tell a deep source present from absent about as well as MNE's
-    sLORETA. The paper's setting, :data:`PAPER_SETTING` (exponent 1.25, smoothed), puts
+    sLORETA. The paper's setting, :data:`skf_ref.PAPER_SETTING` (exponent 1.25, smoothed), puts
     activity in the deep region whether or not a deep source is there: a "detection" there
     means little (validation/report/REPORT.md, "Which setting, and against what").
 

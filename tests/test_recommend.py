@@ -57,11 +57,27 @@ def test_none_admissible_takes_the_best_worse_auc():
     assert recommend(table) == ({"exponent": 0.5, "smoother": None}, False)
 
 
-@pytest.mark.skipif(
-    not (REPORT / "recommendation.json").exists(), reason="no committed report recommendation"
-)
 def test_package_default_is_the_reports_recommendation():
     import skf_ref
 
     recorded = json.loads((REPORT / "recommendation.json").read_text())
     assert recorded["setting"] == dict(skf_ref.RECOMMENDED_SETTING)
+
+
+def test_every_entry_point_defaults_to_the_recommended_setting():
+    import inspect
+
+    import skf_ref
+    from skf_ref.cli import build_parser
+    from skf_ref.demo import run_demo
+
+    for function in (skf_ref.reconstruct, skf_ref.apply_skf, run_demo):
+        defaults = inspect.signature(function).parameters
+        assert {k: defaults[k].default for k in ("exponent", "smoother")} == dict(
+            skf_ref.RECOMMENDED_SETTING
+        ), function.__name__
+    commands = build_parser()._subparsers._group_actions[0].choices
+    for command in ("demo", "reconstruct"):
+        exponent, smoother = (commands[command].get_default(k) for k in ("exponent", "smoother"))
+        smoother = None if smoother == "none" else smoother
+        assert (exponent, smoother) == tuple(skf_ref.RECOMMENDED_SETTING.values()), command

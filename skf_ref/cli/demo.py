@@ -4,7 +4,7 @@ import re
 from pathlib import Path
 
 from ..checks import InputError
-from ..inverse import RECOMMENDED_SETTING
+from ..settings import RECOMMENDED_SETTING
 from ._args import add_skf_options, db, integer
 
 __all__ = ["add_parser", "run"]

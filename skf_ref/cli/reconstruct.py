@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from ..checks import InputError
+from ..settings import RECOMMENDED_SETTING
 from ._args import add_skf_options, positive, report_tuning
 
 __all__ = ["add_parser", "run"]
@@ -56,7 +57,13 @@ def add_parser(subparsers):
         "--baseline", action="store_true", help="estimate the noise from the samples at t <= 0"
     )
     model = parser.add_argument_group("the SKF")
-    add_skf_options(model, exponent=0.5, smoother="none", smoother_help="RTS smoother")
+    add_skf_options(
+        model,
+        exponent=RECOMMENDED_SETTING["exponent"],
+        smoother=RECOMMENDED_SETTING["smoother"] or "none",
+        smoother_help="RTS smoother (the paper's setting: --exponent 1.25 --smoother "
+        "rts-standardized)",
+    )
     model.add_argument(
         "--method",
         default="auto",
