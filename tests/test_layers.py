@@ -7,7 +7,7 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "skf_ref"
 #: The study: head models, the scenario, metrics, figures, sweeps, the command line.
-STUDY = {"head", "simulate", "regions", "metrics", "plots", "sweep", "cli"}
+STUDY = {"head", "simulate", "regions", "metrics", "plots", "sweep", "baselines", "demo", "cli"}
 
 
 def _module(path):

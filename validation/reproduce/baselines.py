@@ -122,10 +122,13 @@ def conditions(settings):
 
     The main condition (the rule's, with :data:`WIDE_SEEDS` seeds) is the realistic head with
     cortex + thalamus, or without MNE's testing dataset the sphere with cortex + thalamus.
+    A ``--quick`` run computes the main condition and the real-noise one only.
     """
     main = "bem-anatomical" if settings.realistic else "sphere-anatomical"
     out = [
-        Condition(cell.name, cell, MONTAGE, "white", cell.name == main) for cell in settings.cells
+        Condition(cell.name, cell, MONTAGE, "white", cell.name == main)
+        for cell in settings.cells
+        if cell.name == main or not settings.quick
     ]
     if settings.realistic:
         cell = next(c.cell for c in out if c.wide)
