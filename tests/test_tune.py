@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from scipy import linalg
 
 import skf_ref
 from skf_ref import InputError, reconstruct
@@ -11,6 +12,15 @@ from skf_ref.tune import tune
 # The likelihood-only recursion and the full paths compute the same sum of the same terms
 # in other orders (the dense path through Cholesky factors of S): rounding, ~1e-15 relative.
 LIKELIHOOD_RTOL = 1e-11
+# The residual in the basis against the dense path's x_{t|t}: the same numbers by other
+# roundings (the dense path's Cholesky solves, the SVD), ~1e-13 relative.
+RESIDUAL_RTOL = 1e-10
+
+
+def whitened_residual(L, Y, R, x_filtered):
+    """sum_t ||C^{-1} (y_t - L x_{t|t})||^2 with R = C C^T, the direct way."""
+    C = linalg.cholesky(R, lower=True)
+    return float(np.sum(linalg.solve_triangular(C, Y - L @ x_filtered, lower=True) ** 2))
 
 
 def state_space_data(seed, m=16, n=40, T=200, sigma=0.5, theta0=0.8, q=0.05):
@@ -34,6 +44,26 @@ def test_likelihood_without_outputs_equals_every_path(transition):
                 L, Y, noise_std=0.5, theta0=theta0, q=q, transition=transition, method=method
             )
             assert value == pytest.approx(rec.log_likelihood, rel=LIKELIHOOD_RTOL), method
+
+
+@pytest.mark.parametrize("transition", [1.0, 0.9])
+def test_residual_energy_equals_the_dense_paths_residual(transition):
+    L, Y = state_space_data(6, T=30)
+    rng = np.random.default_rng(6)
+    B = rng.standard_normal((16, 16))
+    R = 0.25 * np.eye(16) + 0.01 * B @ B.T  # a full covariance: the whitening is not a scale
+    basis = SpectralBasis(L, R)
+    priors = [(0.8, 0.05), (2.0, 0.001), (1e-3, 1.0)]
+    values = basis.residual_energy(Y, [p[0] for p in priors], [p[1] for p in priors], transition)
+    assert values.shape == (3,)
+    for (theta0, q), value in zip(priors, values, strict=True):
+        rec = reconstruct(
+            L, Y, noise_cov=R, theta0=theta0, q=q, transition=transition, method="dense"
+        )
+        direct = whitened_residual(L, Y, R, rec.x_filtered)
+        assert value == pytest.approx(direct, rel=RESIDUAL_RTOL)
+        alone = basis.residual_energy(Y, theta0, q, transition)
+        assert isinstance(alone, float) and alone == pytest.approx(value, rel=1e-14)
 
 
 def test_neither_exponent_nor_smoother_changes_the_likelihood():
