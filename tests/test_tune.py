@@ -1,5 +1,7 @@
 """Priors chosen by the data: the likelihood without outputs, its maximum, and its inputs."""
 
+import warnings
+
 import numpy as np
 import pytest
 from scipy import linalg
@@ -15,6 +17,9 @@ LIKELIHOOD_RTOL = 1e-11
 # The residual in the basis against the dense path's x_{t|t}: the same numbers by other
 # roundings (the dense path's Cholesky solves, the SVD), ~1e-13 relative.
 RESIDUAL_RTOL = 1e-10
+# The discrepancy's EP-SNR is solved to 1e-10 dB, where the residual's slope is below 1 per
+# dB: it meets n_channels * n_times to ~1e-11 relative, on the dense path as in the basis.
+DISCREPANCY_RTOL = 1e-9
 
 
 def whitened_residual(L, Y, R, x_filtered):
@@ -92,13 +97,99 @@ def test_the_maximum_lands_near_the_truth():
     assert result.landscape.shape == (169, 5)
 
 
+@pytest.mark.parametrize("pm_snr_db", [10.0, "auto"])
+@pytest.mark.parametrize("full_cov", [False, True])
+def test_the_discrepancy_puts_the_dense_paths_residual_at_its_expected_value(pm_snr_db, full_cov):
+    L, Y = state_space_data(2, T=60)
+    m, T = Y.shape
+    if full_cov:
+        B = np.random.default_rng(2).standard_normal((m, m))
+        noise = dict(noise_cov=0.25 * np.eye(m) + 0.01 * B @ B.T)
+    else:
+        noise = dict(noise_std=0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # an interior solution: no bound warning
+        result = tune(L, Y, pm_snr_db=pm_snr_db, criterion="discrepancy", **noise)
+    assert result.criterion == "discrepancy" and result.at_bound == {}
+    rec = reconstruct(L, Y, theta0=result.theta0, q=result.q, method="dense", **noise)
+    R = noise.get("noise_cov", 0.25 * np.eye(m))
+    residual = whitened_residual(L, Y, R, rec.x_filtered)
+    assert residual == pytest.approx(m * T, rel=DISCREPANCY_RTOL)
+    assert result.residual_energy == pytest.approx(m * T, rel=DISCREPANCY_RTOL)
+    assert result.log_likelihood == pytest.approx(rec.log_likelihood, rel=LIKELIHOOD_RTOL)
+    if pm_snr_db == "auto":
+        # PM-SNR by the likelihood along the curve: no solved point of the grid scores higher
+        solved = result.curve[result.curve["solved"]]
+        assert result.log_likelihood >= solved["log_likelihood"].max()
+    else:
+        assert result.pm_snr_db == 10.0 and len(result.curve) == 1
+
+
+@pytest.mark.parametrize("criterion", ["likelihood", "discrepancy"])
+def test_an_interior_choice_does_not_warn(criterion):
+    L, Y = state_space_data(2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = tune(L, Y, noise_std=0.5, criterion=criterion)
+    assert result.at_bound == {}
+    assert repr(result).endswith(f", by {criterion}>")
+
+
+@pytest.mark.parametrize(
+    "criterion, ranges, name, end, bound",
+    [
+        # the truth is PM ~ 21 dB, EP ~ 11 dB (state_space_data's theta0 and q)
+        ("likelihood", dict(pm_snr_db=(-20, 0)), "pm_snr_db", "upper", "0"),
+        ("likelihood", dict(ep_snr_db=(20, 40)), "ep_snr_db", "lower", "20"),
+        ("discrepancy", dict(pm_snr_db=(-20, 0)), "pm_snr_db", "upper", "0"),
+        # no root inside: the residual stays above its target up to -10 dB
+        ("discrepancy", dict(ep_snr_db=(-20, -10)), "ep_snr_db", "upper", "-10"),
+    ],
+)
+def test_a_choice_on_a_bound_warns_naming_the_parameter_and_the_bound(
+    criterion, ranges, name, end, bound
+):
+    L, Y = state_space_data(2)
+    match = rf"{name} = {float(bound):.2f} dB lies on the {end} bound {bound} dB .*widen {name}"
+    with pytest.warns(UserWarning, match=match) as record:
+        result = tune(L, Y, noise_std=0.5, criterion=criterion, **ranges)
+    assert result.at_bound[name] == end
+    assert f"{name} on its {end} bound" in repr(result)
+    assert {w.filename for w in record} == {__file__}  # the warning points at the caller
+
+
+def test_a_fixed_snr_never_warns():
+    L, Y = state_space_data(2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for criterion in ("likelihood", "discrepancy"):
+            # 40 dB is the end of the default range, but it was given, not chosen
+            result = tune(L, Y, noise_std=0.5, pm_snr_db=40.0, criterion=criterion)
+            assert "pm_snr_db" not in result.at_bound
+
+
+def test_choose_priors_passes_the_criterion_and_warns_at_its_caller():
+    L, Y = state_space_data(2, T=60)
+    theta0, q, result = skf_ref.tune.choose_priors(
+        L, Y, noise_std=0.5, pm_snr_db=10.0, ep_snr_db="auto", criterion="discrepancy"
+    )
+    assert result.criterion == "discrepancy" and (theta0, q) == (result.theta0, result.q)
+    assert result.residual_energy == pytest.approx(Y.size, rel=DISCREPANCY_RTOL)
+    with pytest.warns(UserWarning, match="pm_snr_db = -20.00 dB lies on the lower") as record:
+        skf_ref.priors_from_snr(L, 0.5, "auto", 40.0, 60, data=0.5 * np.ones_like(Y))
+    assert {w.filename for w in record} == {__file__}
+
+
 def test_landscape_is_finite_over_the_default_grid_of_the_study():
     from skf_ref.head import make_head_model
     from skf_ref.simulate import p20n20_scenario, simulate
 
     head = make_head_model(500)
     sim = simulate(head, p20n20_scenario(), 10.0, seed=0)
-    result = tune(head.leadfield, sim.Y, noise_std=sim.sigma)
+    # on the study's data the likelihood prefers a PM-SNR below the fine map's span
+    with pytest.warns(UserWarning, match="pm_snr_db = -20.00 dB lies on the lower bound"):
+        result = tune(head.leadfield, sim.Y, noise_std=sim.sigma)
+    assert result.at_bound == {"pm_snr_db": "lower"}
     assert np.isfinite(result.landscape["log_likelihood"]).all()
     assert result.landscape["pm_snr_db"].min() == -20 and result.landscape["ep_snr_db"].max() == 40
 
@@ -110,14 +201,16 @@ def test_a_fixed_snr_and_auto_everywhere(mne_setup):
     theta0, q = skf_ref.priors_from_snr(L, 0.5, 0.0, "auto", 60, data=Y)
     assert (theta0, q) == pytest.approx((fixed.theta0, fixed.q), rel=1e-6)
     epochs = mne_setup["make_epochs"](target=300, seed=7)
-    stc, rec = skf_ref.apply_skf(
-        epochs.average(),
-        mne_setup["forward"],
-        1e-6,
-        pm_snr_db="auto",
-        ep_snr_db="auto",
-        return_reconstruction=True,
-    )
+    with pytest.warns(UserWarning, match="lies on the .* bound") as record:
+        stc, rec = skf_ref.apply_skf(
+            epochs.average(),
+            mne_setup["forward"],
+            1e-6,
+            pm_snr_db="auto",
+            ep_snr_db="auto",
+            return_reconstruction=True,
+        )
+    assert {w.filename for w in record} == {__file__}  # through apply_skf to its caller
     assert rec.tuning is not None and rec.theta0 == rec.tuning.theta0
     assert np.isfinite(stc.data).all()
 
@@ -133,6 +226,10 @@ def test_a_fixed_snr_and_auto_everywhere(mne_setup):
         (dict(grid=1), "grid must be >= 2"),
         (dict(convention="toolbox", noise_std=None, noise_cov=np.eye(16)), "needs noise_std"),
         (dict(transition=np.eye(40)), "transition must be a scalar"),
+        (
+            dict(criterion="morozov"),
+            r"criterion must be one of \['likelihood', 'discrepancy'\], got 'morozov'",
+        ),
     ],
 )
 def test_bad_ranges_are_refused(change, match):
@@ -142,6 +239,10 @@ def test_bad_ranges_are_refused(change, match):
         tune(L, Y, **kwargs)
     with pytest.raises(InputError, match="'auto' needs the data"):
         skf_ref.priors_from_snr(L, 0.5, "auto", 20.0, 10)
+    with pytest.raises(InputError, match="criterion must be one of"):
+        skf_ref.tune.choose_priors(
+            L, Y, noise_std=0.5, pm_snr_db=0.0, ep_snr_db=0.0, criterion="morozov"
+        )
 
 
 def test_landscape_figure_marks_the_chosen_point():
