@@ -135,6 +135,16 @@ def test_an_interior_choice_does_not_warn(criterion):
     assert repr(result).endswith(f", by {criterion}>")
 
 
+def test_the_discrepancy_asks_for_less_process_noise_than_the_truth():
+    # docs/model.md §4: the target m T exceeds the filtered residual expected at the true
+    # priors, so the principle chooses a smaller q (here 3.7 dB against 11 dB EP-SNR)
+    L, Y = state_space_data(2)
+    likelihood = tune(L, Y, noise_std=0.5)
+    discrepancy = tune(L, Y, noise_std=0.5, criterion="discrepancy")
+    assert discrepancy.q < 0.05 / 2 < likelihood.q  # the truth: q = 0.05
+    assert discrepancy.ep_snr_db == pytest.approx(3.7, abs=0.1)
+
+
 @pytest.mark.parametrize(
     "criterion, ranges, name, end, bound",
     [
