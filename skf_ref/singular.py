@@ -7,8 +7,9 @@ whitened lead field. This module holds those recursions and :class:`SpectralBasi
 whitening and the SVD, which depend on ``L`` and ``R`` only.
 
 The recursions broadcast over leading dimensions of ``theta0`` and ``q``: with arrays of K
-priors they run K filters at once, which is how :meth:`SpectralBasis.log_likelihood`
-evaluates a whole grid of priors (docs/model.md §4) for about the cost of one filter.
+priors they run K filters at once, which is how :meth:`SpectralBasis.log_likelihood` and
+:meth:`SpectralBasis.residual_energy` evaluate a whole grid of priors (docs/model.md §4) for
+about the cost of one filter.
 """
 
 import collections
@@ -220,20 +221,32 @@ def covariances(s, a, q, theta0, n_times):
 
 
 def filter_means(s, eta, p_pred, a):
-    """``xi_t = V^T x_{t|t}`` (T, ..., r) and the whitened innovations' quadratic form (...).
+    """The filtered means in the basis and two sums over their residuals, in one pass.
 
     ``eta`` is the whitened data in the basis ``U``, (T, r); ``p_pred`` from
     :func:`covariances`, with the same batch dimensions ``...`` as the result.
+
+    Returns
+    -------
+    xi : ndarray, shape (T, ..., r)
+        ``xi_t = V^T x_{t|t}``.
+    quadratic : ndarray, shape (...)
+        ``sum_t e~_t^T S~_t^{-1} e~_t`` over span U, the innovations' quadratic form.
+    residual : ndarray, shape (...)
+        ``sum_t ||U^T (y~_t - L~ x_{t|t})||^2``, the filtered residual's energy on span U:
+        ``U^T y~_t - s xi_t = e~_t - s^2 p / (s^2 p + 1) e~_t = e~_t / (s^2 p + 1)``.
     """
     xi, x = np.empty(p_pred.shape), np.zeros(p_pred.shape[1:])
     quadratic = np.zeros(p_pred.shape[1:-1])
+    residual = np.zeros(p_pred.shape[1:-1])
     for t in range(len(eta)):
         denom = s**2 * p_pred[t] + 1  # eigenvalues of S~ on span U
         innovation = eta[t] - s * a * x  # U^T (y~_t - L~ x_{t|t-1})
         # x_{t|t} = x_{t|t-1} + K~ e~_t with K~ = V diag(p s / (s^2 p + 1)) U^T §2.2 (5)
         x = xi[t] = a * x + p_pred[t] * s / denom * innovation
         quadratic += np.sum(innovation**2 / denom, axis=-1)
-    return xi, quadratic
+        residual += np.sum((innovation / denom) ** 2, axis=-1)  # U^T (y~_t - L~ x_{t|t})
+    return xi, quadratic, residual
 
 
 def rts_gains(p_pred, p_filt, u, a):
@@ -371,22 +384,63 @@ class SpectralBasis:
         ndarray, shape (K,), or float for scalar priors
             Equal to ``reconstruct(...).log_likelihood`` at each pair.
         """
+        return self._sums(Y, theta0, q, transition)[0]
+
+    def residual_energy(self, Y, theta0, q, transition=1.0):
+        r"""The whitened residual of the filtered means, ``sum_t ||C^{-1} (y_t - L x_{t|t})||^2``.
+
+        For each of many priors, with no (n, T) array: on span U the residual is the
+        innovation divided by ``s^2 p_{t|t-1} + 1`` (:func:`filter_means`); off span U it is
+        the data's own part there, whatever the priors. The discrepancy principle
+        (docs/model.md §4) sets it to ``n_channels * n_times``.
+
+        Parameters
+        ----------
+        Y : ndarray, shape (n_channels, n_times)
+        theta0, q : float or array_like, shape (K,)
+            Isotropic priors ``P_0 = theta0 I``, ``Q = q I``, K pairs (broadcast).
+        transition : float
+            ``A = transition I``.
+
+        Returns
+        -------
+        ndarray, shape (K,), or float for scalar priors
+
+        Examples
+        --------
+        >>> from skf_ref import reconstruct
+        >>> rng = np.random.default_rng(0)
+        >>> L, Y = rng.standard_normal((6, 9)), rng.standard_normal((6, 5))
+        >>> basis = SpectralBasis(L, np.eye(6))
+        >>> rec = reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, method="dense")
+        >>> direct = np.sum((Y - L @ rec.x_filtered) ** 2)
+        >>> bool(np.isclose(basis.residual_energy(Y, 1.0, 0.1), direct, rtol=1e-12))
+        True
+        """
+        return self._sums(Y, theta0, q, transition)[1]
+
+    def _sums(self, Y, theta0, q, transition):
+        """The log-likelihood and the filtered residual's energy, (K,) each or floats."""
         eta, rho_sq = self.project(Y)
         theta0, q = np.broadcast_arrays(np.asarray(theta0, float), np.asarray(q, float))
         flat_theta0, flat_q = theta0.ravel(), q.ravel()
-        out = np.empty(flat_theta0.shape)
-        for start in range(0, len(out), _PRIORS_AT_ONCE):
+        out = np.empty((2, len(flat_theta0)))
+        for start in range(0, out.shape[1], _PRIORS_AT_ONCE):
             chunk = slice(start, start + _PRIORS_AT_ONCE)
             priors = flat_q[chunk], flat_theta0[chunk]
             p_pred = covariances(self.s, transition, *priors, len(eta))[0]
-            quadratic = filter_means(self.s, eta, p_pred, transition)[1]
+            _, quadratic, residual = filter_means(self.s, eta, p_pred, transition)
             log_det_S = log_det_innovations(self.s, p_pred)
-            out[chunk] = log_likelihood(
+            out[0, chunk] = log_likelihood(
                 quadratic, log_det_S, rho_sq, self.log_det_C, self.n_channels, len(eta)
             )
+            out[1, chunk] = residual + rho_sq
         if not np.isfinite(out).all():
             raise InputError(
-                "the log-likelihood is not finite for some priors: they are out of range at "
-                f"this lead field's scale (largest whitened singular value {self.s[0]:.3g})"
+                "the log-likelihood or the residual is not finite for some priors: they are "
+                "out of range at this lead field's scale (largest whitened singular value "
+                f"{self.s[0]:.3g})"
             )
-        return out.reshape(theta0.shape) if theta0.ndim else float(out[0])
+        if theta0.ndim:
+            return out[0].reshape(theta0.shape), out[1].reshape(theta0.shape)
+        return float(out[0, 0]), float(out[1, 0])

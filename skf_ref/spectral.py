@@ -163,7 +163,7 @@ class SpectralModel:
         if Y.shape != (m, T):
             raise InputError(f"Y must have shape ({m}, {T}), got {Y.shape}")
         eta, rho_sq = self.basis.project(Y)  # U^T y~ (T, r) and the data outside span U
-        xi, quadratic = filter_means(self.s, eta, self.p_pred, a)
+        xi, quadratic, _ = filter_means(self.s, eta, self.p_pred, a)
         total = log_likelihood(quadratic, self._log_det_S, rho_sq, self.basis.log_det_C, m, T)
         gamma, beta = rts_gains(self.p_pred, self.p_filt, self._u, a)
         rows = SpectralRows(

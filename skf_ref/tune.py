@@ -1,17 +1,29 @@
-"""Priors chosen by the data: PM-SNR and EP-SNR by marginal likelihood (docs/model.md §4).
+"""Priors chosen by the data: PM-SNR and EP-SNR by one of two criteria (docs/model.md §4).
 
 The Kalman filter gives the marginal likelihood of the data, ``log p(Y | theta0, q)``, as
-the sum of its innovations' log densities. In the singular basis of the whitened lead field
-it needs only the rank-r recursions (:class:`skf_ref.singular.SpectralBasis`): one SVD,
-then a few hundred microseconds per prior pair at the paper's scale, with no n-dimensional
-array at all, so a whole grid of priors costs little more than one reconstruction.
+the sum of its innovations' log densities, and the filtered residual ``y_t - L x_{t|t}``
+whose whitened energy the discrepancy principle matches to the noise's. In the singular
+basis of the whitened lead field both need only the rank-r recursions
+(:class:`skf_ref.singular.SpectralBasis`): one SVD, then a few hundred microseconds per prior
+pair at the paper's scale, with no n-dimensional array at all, so a whole grid of priors
+costs little more than one reconstruction.
+
+A searched SNR chosen on (within :data:`BOUND_TOL_DB` of) an end of its range is reported:
+the criterion would have gone further, so the range, not the data, made the choice.
+:func:`tune` then warns (``UserWarning``) naming the parameter and the bound, and
+:attr:`TuneResult.at_bound` records it.
 """
 
-from dataclasses import dataclass
+import math
+import os
+import sys
+import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .checks import InputError, check_choice, check_db, check_int, check_real, describe
+from .discrepancy import choose_on_curve
 from .model import StateSpaceModel
 from .priors import (
     CONVENTIONS,
@@ -22,15 +34,20 @@ from .priors import (
 )
 from .singular import SpectralBasis, whitener
 
-__all__ = ["AUTO_RANGE_DB", "TuneResult", "choose_priors", "tune"]
+__all__ = ["AUTO_RANGE_DB", "BOUND_TOL_DB", "CRITERIA", "TuneResult", "choose_priors", "tune"]
 
 #: The SNRs searched for ``"auto"`` (dB): the span of the paper's finer map.
 AUTO_RANGE_DB = (-20.0, 40.0)
+#: The criteria :func:`tune` can maximize or solve (docs/model.md §4).
+CRITERIA = ("likelihood", "discrepancy")
+#: A searched SNR this close (dB) to an end of its range is on that bound.
+BOUND_TOL_DB = 0.01
+_ENDS = ("lower", "upper")
 
 
 @dataclass(frozen=True, eq=False)
 class TuneResult:
-    """The priors of largest marginal likelihood, and the likelihood over the grid.
+    """The priors a criterion chose, and the likelihood over the grid.
 
     Attributes
     ----------
@@ -46,6 +63,18 @@ class TuneResult:
         ``log_likelihood``.
     convention : str
         The amplitude convention of the SNRs.
+    criterion : {"likelihood", "discrepancy"}
+        How the SNRs were chosen.
+    at_bound : dict
+        ``"pm_snr_db"`` and/or ``"ep_snr_db"`` -> ``"lower"`` or ``"upper"``: the searched
+        SNRs chosen on (within :data:`BOUND_TOL_DB` of) an end of their range. Empty when
+        every searched SNR is inside its range; a fixed SNR is never listed.
+    residual_energy : float
+        ``sum_t ||C^{-1} (y_t - L x_{t|t})||^2`` at the chosen priors (``R = C C^T``): the
+        discrepancy principle sets it to ``n_channels * n_times``.
+    curve : pandas.DataFrame or None
+        For ``"discrepancy"``: the PM-SNRs of the coarse grid, the EP-SNR the principle
+        gives each (``ep_snr_db``) and the log-likelihood there. None for ``"likelihood"``.
     """
 
     pm_snr_db: float
@@ -55,11 +84,17 @@ class TuneResult:
     log_likelihood: float
     landscape: object
     convention: str
+    criterion: str = "likelihood"
+    at_bound: dict = field(default_factory=dict)
+    residual_energy: float = math.nan
+    curve: object = None
 
     def __repr__(self):
+        bounds = ", ".join(f"{name} on its {end} bound" for name, end in self.at_bound.items())
         return (
             f"<TuneResult | PM-SNR {self.pm_snr_db:.2f} dB, EP-SNR {self.ep_snr_db:.2f} dB, "
-            f"log-likelihood {self.log_likelihood:.6g}>"
+            f"log-likelihood {self.log_likelihood:.6g}, by {self.criterion}"
+            f"{'; ' + bounds if bounds else ''}>"
         )
 
 
@@ -91,14 +126,36 @@ def tune(
     transition=1.0,
     convention="gain",
     grid=13,
+    criterion="likelihood",
 ):
-    """PM-SNR and EP-SNR that maximize the marginal likelihood of the data.
+    r"""PM-SNR and EP-SNR chosen from the data by the marginal likelihood or the discrepancy.
 
-    A coarse grid of ``grid`` values per searched SNR, then a bounded refinement
+    ``criterion="likelihood"`` (default): the SNRs that maximize the marginal likelihood of
+    the data. A coarse grid of ``grid`` values per searched SNR, then a bounded refinement
     (``scipy.optimize.minimize``, L-BFGS-B, from the best cell). The likelihood judges the
     model ``y = L x + r`` with its priors; it cannot choose the standardization exponent or
     the smoother: they change the estimate shown, not the model, and leave the likelihood
     unchanged.
+
+    ``criterion="discrepancy"``: Morozov's discrepancy principle for the process noise. At
+    each PM-SNR, the EP-SNR at which the whitened residual of the filtered means equals
+    its expected value under the noise model,
+
+    .. math:: \sum_t \|C^{-1} (y_t - L x_{t|t})\|^2 = m T, \qquad R = C C^T,
+
+    with ``m = n_channels`` (the rows of the whitened data ``C^{-1} Y``) and ``T = n_times``,
+    found by a bracketing root search in dB within the EP-SNR range, to 1e-10 dB
+    (:mod:`skf_ref.discrepancy`); where the residual does not cross ``m T`` inside the
+    range, the end where it comes nearest. The principle says nothing of the PM-SNR: a
+    number fixes it; over a range, the PM-SNR is the one of largest marginal likelihood
+    along the curve of those solutions (the ``grid`` PM-SNRs whose solution lies inside
+    the EP range, or all of them if none does; then Brent's bounded search between the
+    best one's neighbours). A fixed EP-SNR leaves the principle nothing to solve: the
+    PM-SNR is then chosen by the likelihood at that EP-SNR.
+
+    A searched SNR chosen within :data:`BOUND_TOL_DB` of an end of its range raises a
+    ``UserWarning`` that names it and the bound (widen the range to let the criterion
+    decide), and is listed in :attr:`TuneResult.at_bound`. A fixed SNR never warns.
 
     Parameters
     ----------
@@ -118,22 +175,37 @@ def tune(
         and ``theta0``, ``q`` and the likelihood are those of ``Y / max|Y|``.
     grid : int
         Values per searched SNR on the coarse grid, >= 2.
+    criterion : {"likelihood", "discrepancy"}
+        What chooses the SNRs (see above).
 
     Returns
     -------
     TuneResult
+
+    Warns
+    -----
+    UserWarning
+        When a searched SNR is chosen on a bound of its range.
 
     Examples
     --------
     >>> rng = np.random.default_rng(0)
     >>> L = rng.standard_normal((8, 20))
     >>> X = np.cumsum(0.3 * rng.standard_normal((20, 50)), axis=1)
-    >>> result = tune(L, L @ X + 0.5 * rng.standard_normal((8, 50)), noise_std=0.5, grid=7)
-    >>> result.landscape.shape
-    (49, 5)
+    >>> Y = L @ X + 0.5 * rng.standard_normal((8, 50))
+    >>> result = tune(L, Y, noise_std=0.5, grid=7)
+    >>> result.landscape.shape, result.at_bound
+    ((49, 5), {})
     >>> bool(result.log_likelihood >= result.landscape["log_likelihood"].max())
     True
+
+    The discrepancy principle puts the filtered residual at its expected value, 8 x 50:
+
+    >>> result = tune(L, Y, noise_std=0.5, pm_snr_db=10.0, criterion="discrepancy")
+    >>> round(result.residual_energy, 6), result.at_bound
+    (400.0, {})
     """
+    check_choice("criterion", criterion, CRITERIA)
     check_choice("convention", convention, CONVENTIONS)
     grid = check_int("grid", grid, minimum=2)
     ranges = [_search_range("pm_snr_db", pm_snr_db), _search_range("ep_snr_db", ep_snr_db)]
@@ -157,17 +229,32 @@ def tune(
     a = float(model.transition)
 
     def log_likelihoods(points):
-        theta0, q = priors(points)
-        return basis.log_likelihood(Y, theta0, q, a)
+        return basis.log_likelihood(Y, *priors(points), a)
 
-    axes = [np.linspace(low, high, grid) if low < high else [low] for low, high in ranges]
+    axes = [
+        np.linspace(low, high, grid) if low < high else np.array([low]) for low, high in ranges
+    ]
     cells = np.array(np.meshgrid(*axes, indexing="ij")).reshape(2, -1).T
     values = log_likelihoods(cells)
-    best = _refine(log_likelihoods, cells[np.argmax(values)], ranges)
-    best_value = float(log_likelihoods(best[None])[0])
-    if best_value < values.max():  # the refinement did not improve on the grid
-        best, best_value = cells[np.argmax(values)], float(values.max())
-    return _result(cells, values, priors, best, best_value, convention)
+    curve = None
+    if criterion == "likelihood":
+        best = _refine(log_likelihoods, cells[np.argmax(values)], ranges)
+        best_value = float(log_likelihoods(best[None])[0])
+        if best_value < values.max():  # the refinement did not improve on the grid
+            best, best_value = cells[np.argmax(values)], float(values.max())
+    else:
+        target = Y.size  # m T: E||C^{-1} r_t||^2 = m at every step
+
+        def excess(points):
+            return basis.residual_energy(Y, *priors(points), a) - target
+
+        best, best_value, curve = choose_on_curve(log_likelihoods, excess, axes[0], ranges)
+    residual = basis.residual_energy(Y, *priors(best[None]), a)[0]
+    at_bound = _at_bound(best, ranges)
+    _warn_at_bound(at_bound, best, ranges, criterion)
+    return _result(
+        cells, values, priors, best, best_value, convention, criterion, at_bound, residual, curve
+    )
 
 
 def _priors(model, basis, convention, n_steps):
@@ -217,7 +304,52 @@ def _refine(log_likelihoods, start, ranges, step_db=1e-3):
     return best
 
 
-def _result(cells, values, priors, best, best_value, convention):
+def _at_bound(best, ranges):
+    """Searched SNRs within BOUND_TOL_DB of an end of their range -> "lower" or "upper"."""
+    out = {}
+    for name, value, (low, high) in zip(("pm_snr_db", "ep_snr_db"), best, ranges, strict=True):
+        if low < high:
+            for end, bound in zip(_ENDS, (low, high), strict=True):
+                if abs(value - bound) <= BOUND_TOL_DB:
+                    out[name] = end
+    return out
+
+
+def _warn_at_bound(at_bound, best, ranges, criterion):
+    """One UserWarning per SNR on a bound, pointing at the first caller outside skf_ref."""
+    names = ("pm_snr_db", "ep_snr_db")
+    for name, end in at_bound.items():
+        i = names.index(name)
+        low, high = ranges[i]
+        bound = (low, high)[_ENDS.index(end)]
+        if criterion == "discrepancy" and name == "ep_snr_db":
+            why = "the filtered residual meets its expected value only there or beyond"
+        elif criterion == "discrepancy":
+            why = "the likelihood along the discrepancy curve is largest there or beyond"
+        else:
+            why = "the marginal likelihood is largest there or beyond"
+        further = "below" if end == "lower" else "above"
+        warnings.warn(
+            f"tune: {name} = {best[i]:.2f} dB lies on the {end} bound {bound:g} dB of its "
+            f"search range ({low:g}, {high:g}): {why}; widen {name} {further} {bound:g} dB "
+            "to let the data choose",
+            UserWarning,
+            stacklevel=_stacklevel(),
+        )
+
+
+def _stacklevel():
+    """``stacklevel`` for the caller's ``warnings.warn``: the first frame outside skf_ref."""
+    package = os.path.dirname(os.path.abspath(__file__)) + os.sep
+    frame, level = sys._getframe(1), 1  # the function that calls warnings.warn
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+def _result(
+    cells, values, priors, best, best_value, convention, criterion, at_bound, residual, curve
+):
     import pandas as pd
 
     theta0, q = priors(cells)
@@ -239,11 +371,23 @@ def _result(cells, values, priors, best, best_value, convention):
         log_likelihood=best_value,
         landscape=landscape,
         convention=convention,
+        criterion=criterion,
+        at_bound=at_bound,
+        residual_energy=float(residual),
+        curve=curve,
     )
 
 
 def choose_priors(
-    L, Y, *, noise_std=None, noise_cov=None, pm_snr_db, ep_snr_db, convention="gain"
+    L,
+    Y,
+    *,
+    noise_std=None,
+    noise_cov=None,
+    pm_snr_db,
+    ep_snr_db,
+    convention="gain",
+    criterion="likelihood",
 ):
     """``theta0, q`` from two SNRs, either of which may be ``"auto"``, and how they were chosen.
 
@@ -260,6 +404,8 @@ def choose_priors(
     pm_snr_db, ep_snr_db : float or "auto"
     convention : {"gain", "toolbox"}
         "toolbox" needs ``noise_std``.
+    criterion : {"likelihood", "discrepancy"}
+        How :func:`tune` chooses an ``"auto"`` SNR.
 
     Returns
     -------
@@ -267,6 +413,7 @@ def choose_priors(
     tuning : TuneResult or None
         None when both SNRs were given.
     """
+    check_choice("criterion", criterion, CRITERIA)
     if "auto" in (pm_snr_db, ep_snr_db):
         result = tune(
             L,
@@ -276,6 +423,7 @@ def choose_priors(
             pm_snr_db=pm_snr_db,
             ep_snr_db=ep_snr_db,
             convention=convention,
+            criterion=criterion,
         )
         return result.theta0, result.q, result
     n_times = np.shape(Y)[-1]

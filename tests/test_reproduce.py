@@ -231,17 +231,30 @@ class TestReport:
         text = (reports[0][0] / "REPORT.md").read_text()
         section = _section(text, "## Priors chosen by the data")
         rows = [line for line in section.splitlines() if line.startswith("| sphere")]
-        assert len(rows) == len(SPHERE_CELLS) * len(NOISE_LEVELS) * len(STAGES)
-        met = sum(row.rstrip(" |").endswith("| met") for row in rows)
-        assert f"Met in {met} of {len(rows)} settings" in section
+        settings = len(SPHERE_CELLS) * len(NOISE_LEVELS) * len(STAGES)
+        for name in ("marginal likelihood", "discrepancy principle"):
+            tuned = [row for row in rows if f"| {name}, per seed |" in row]
+            assert len(tuned) == settings
+            met = sum(row.rstrip(" |").endswith("| met") for row in tuned)
+            assert f"by the {name}: met in {met} of {settings} settings" in section
+            # the bound counts: one row per cell, noise level and criterion
+            bounds = [row for row in rows if f"| {name} | {QUICK_SEEDS} |" in row]
+            assert len(bounds) == len(SPHERE_CELLS) * len(NOISE_LEVELS)
+        # the best cell is chosen on the first half of the seeds and scored on the other
+        assert "best of the map, chosen on seed 0 |" in section
+        assert "scored on seed 1 (1 seed, none of which chose the best cell)" in section
         for cell in SPHERE_CELLS:
             table = pd.read_csv(reports[0][0] / cell.name / TUNED)
-            assert len(table) == len(NOISE_LEVELS) * len(STAGES) * QUICK_SEEDS
-            # one choice per noise level and seed, shared by both stages
-            choices = table.groupby(["snr_db", "seed"])[["ep_snr_db", "pm_snr_db"]].nunique()
+            assert len(table) == 2 * len(NOISE_LEVELS) * len(STAGES) * QUICK_SEEDS
+            # one choice per criterion, noise level and seed, shared by both stages
+            keys = ["criterion", "snr_db", "seed"]
+            choices = table.groupby(keys)[["ep_snr_db", "pm_snr_db"]].nunique()
             assert (choices == 1).all().all()
             assert table["ep_snr_db"].between(*FINE_RANGE).all()
             assert table["pm_snr_db"].between(*FINE_RANGE).all()
+            # every SNR on a bound gave one warning, caught and counted
+            on_bound = (table["pm_bound"] != "none").astype(int) + (table["ep_bound"] != "none")
+            assert (table["bound_warnings"] == on_bound).all()
 
     def test_rerun_reuses_rows_and_gives_the_same_report(self, reports, tmp_path):
         out = reports[0][1]
@@ -607,20 +620,19 @@ def test_blas_order_does_not_change_the_outputs(monkeypatch):
 # --------------------------------------------------------------------------- tuned priors
 
 
-def _stage_rows(errors, tuned=False, seeds=4):
-    """Rows at every noise level and stage: ``errors`` maps (EP, PM) -> score (mm) for
-    the fixed cells, or gives the tuned score (a number) with per-seed priors."""
+def _stage_rows(errors, seeds=4, **columns):
+    """Rows at every noise level and stage: ``errors`` maps (EP, PM) -> a score (mm), the
+    error of seed s being score + (s - 1.5), or a function of the seed giving it."""
     rows = []
     for snr in NOISE_LEVELS:
         for _, (exponent, smoother) in STAGES:
-            cells = {(3.0 + snr, -20.0): errors} if tuned else errors
-            for (ep, pm), score in cells.items():
+            for (ep, pm), score in errors.items():
                 for seed in range(seeds):
-                    error = score + (seed - 1.5)  # SE over 4 seeds: sqrt(5/3) / 2
+                    error = score(seed) if callable(score) else score + (seed - 1.5)
                     rows.append(
                         dict(
                             snr_db=snr,
-                            ep_snr_db=ep + 0.1 * seed * tuned,
+                            ep_snr_db=ep,
                             pm_snr_db=pm,
                             exponent=exponent,
                             smoother=smoother,
@@ -631,44 +643,87 @@ def _stage_rows(errors, tuned=False, seeds=4):
                             superficial_corr=0.7,
                             separation=seed < 2,
                         )
+                        | columns
                     )
     return pd.DataFrame(rows)
 
 
+def _tuned_rows(score, seeds=4):
+    """Both criteria's rows: per-seed priors (EP 13 + 0.1 seed, PM on the lower bound)."""
+    frames = []
+    for criterion in ("likelihood", "discrepancy"):
+        rows = _stage_rows({(13.0, -20.0): score}, seeds, criterion=criterion)
+        rows["ep_snr_db"] += 0.1 * rows["seed"]
+        rows = rows.assign(pm_bound="lower", ep_bound="none", bound_warnings=1)
+        frames.append(rows)
+    return pd.concat(frames, ignore_index=True)
+
+
 class TestTunedComparison:
+    # choose on seeds 0, 1 and score on 2, 3: with errors score + (-1.5, -0.5, 0.5, 1.5),
+    # a cell of score 10 has median 11.0, Q1 10.75 and Q3 11.25 on the scoring seeds
     fixed = _stage_rows(
         {(0.0, 0.0): 10.0, (20.0, 0.0): 12.0, (0.0, 20.0): 20.0, (20.0, 20.0): 30.0}
     )
 
-    def test_the_best_cell_is_the_lowest_mean_and_the_paper_cells_follow_the_paper(self):
-        out = compare_tuned(_stage_rows(10.0, tuned=True), self.fixed, seeds=4)
+    def test_the_seeds_that_choose_and_the_seeds_that_score_are_disjoint(self):
+        from validation.reproduce.tuned import split_seeds
+
+        assert split_seeds(10) == (range(0, 5), range(5, 10))
+        assert split_seeds(QUICK_SEEDS) == (range(0, 1), range(1, 2))
+        for seeds in range(2, 13):
+            choose, score = split_seeds(seeds)
+            assert choose and score and not set(choose) & set(score)
+            assert sorted([*choose, *score]) == list(range(seeds))
+        for comparison in compare_tuned(_tuned_rows(10.0), self.fixed, seeds=4):
+            assert comparison.choose_seeds == (0, 1) and comparison.score_seeds == (2, 3)
+            for entry in (*comparison.tuned.values(), comparison.best, *comparison.paper):
+                assert entry.score[3] == 2 and entry.separated[1] == 2  # scoring seeds only
+
+    def test_the_best_cell_is_chosen_on_the_first_half_and_scored_on_the_other(self):
+        # (20, 0) is best on seeds 0, 1 (8 mm) and worst of the two on seeds 2, 3 (14 mm)
+        flip = {(0.0, 0.0): 10.0, (20.0, 0.0): lambda seed: 8.0 if seed < 2 else 14.0}
+        out = compare_tuned(_tuned_rows(10.0), _stage_rows(flip), seeds=4)
+        for comparison in out:
+            assert comparison.best.priors == "(EP 20, PM 0)"
+            assert comparison.best.score == (14.0, 14.0, 14.0, 2)
+
+    def test_the_best_cell_is_the_lowest_median_and_the_paper_cells_follow_the_paper(self):
+        out = compare_tuned(_tuned_rows(10.0), self.fixed, seeds=4)
         assert len(out) == len(NOISE_LEVELS) * len(STAGES)
         for comparison in out:
             assert comparison.best.priors == "(EP 0, PM 0)"
+            assert comparison.best.score == (11.0, 10.75, 11.25, 2)
             assert [p.priors for p in comparison.paper] == [
                 f"(EP {e:g}, PM {p:g})" for e, p in paper_cells(comparison.snr, comparison.stage)
             ]
         assert paper_cells(30.0, TUNING) == [(20.0, 0.0), (0.0, 20.0)]
         assert paper_cells(10.0, TUNING) == [(0.0, 0.0)]
 
-    def test_within_one_standard_error_meets_the_target(self):
-        se = np.sqrt(5 / 3) / 2
-        out = compare_tuned(_stage_rows(10.0 + 0.99 * se, tuned=True), self.fixed, seeds=4)
-        assert all(c.met for c in out)
-        assert out[0].tuned.score[0] == pytest.approx(10.0 + 0.99 * se)
-        assert out[0].tuned.separation == 0.5 and out[0].tuned.correlation == pytest.approx(0.6)
+    def test_a_median_at_the_best_cells_q3_meets_the_target(self):
+        out = compare_tuned(_tuned_rows(10.25), self.fixed, seeds=4)  # median 11.25
+        assert all(all(c.met.values()) for c in out)
+        tuned = out[0].tuned["discrepancy"]
+        assert tuned.score[0] == pytest.approx(11.25)
+        assert tuned.separated == (0, 2) and tuned.correlation == (0.6, 0.6, 0.6, 2)
 
-    def test_beyond_one_standard_error_misses_it(self):
-        se = np.sqrt(5 / 3) / 2
-        out = compare_tuned(_stage_rows(10.0 + 1.01 * se, tuned=True), self.fixed, seeds=4)
-        assert not any(c.met for c in out)
+    def test_a_median_beyond_the_best_cells_q3_misses_it(self):
+        out = compare_tuned(_tuned_rows(10.26), self.fixed, seeds=4)
+        assert not any(any(c.met.values()) for c in out)
 
     def test_a_lower_separation_rate_misses_it(self):
-        tuned = _stage_rows(10.0, tuned=True)
-        tuned["separation"] = tuned["seed"] < 1  # 25 % against the best cell's 50 %
-        assert not any(c.met for c in compare_tuned(tuned, self.fixed, seeds=4))
+        fixed = self.fixed.assign(separation=True)  # the best cell: 2 of 2 scoring seeds
+        tuned = _tuned_rows(10.0)
+        tuned["separation"] = tuned["seed"] < 3  # 1 of 2: 50 % < 90 % of 100 %
+        assert not any(any(c.met.values()) for c in compare_tuned(tuned, fixed, seeds=4))
+        tuned["separation"] = True
+        assert all(all(c.met.values()) for c in compare_tuned(tuned, fixed, seeds=4))
 
-    def test_choices_on_the_range_ends_are_counted(self):
-        out = compare_tuned(_stage_rows(10.0, tuned=True), self.fixed, seeds=4)
-        assert all(c.edges == {"ep_snr_db": 0, "pm_snr_db": 4} for c in out)
-        assert out[0].tuned.priors.endswith("(13.0 to 13.3), PM -20.0 (-20.0 to -20.0)")
+    def test_choices_on_the_range_ends_are_counted_over_every_seed(self):
+        out = compare_tuned(_tuned_rows(10.0), self.fixed, seeds=4)
+        for comparison in out:
+            for bounds in comparison.bounds.values():
+                assert (bounds.seeds, bounds.pm_snr_db, bounds.ep_snr_db) == (4, (4, 0), (0, 0))
+                assert bounds.warnings == 4
+        # the median [Q1, Q3] of the scoring seeds' choices: EP 13.2 and 13.3
+        assert out[0].tuned["likelihood"].priors == "EP 13.2 [13.2, 13.3], PM -20.0 [-20.0, -20.0]"

@@ -21,6 +21,7 @@ from .settings import (
     TUNING,
 )
 from .stats import _best, _cell, _fmt, _mean_se, _pm, _select, corner_stats
+from .tuned import tuned_section
 
 __all__ = ["Overview", "overview_text"]
 
@@ -581,89 +582,6 @@ def _discussion_section(data):
     return lines
 
 
-# --------------------------------------------------------------------------- tuned priors
-
-
-def _stage_label(stage):
-    exponent, smoother = stage
-    return f"{exponent:g}, {'no smoothing' if smoother == 'none' else smoother}"
-
-
-def _tuned_row(cell, comparison):
-    tuned, best, paper = comparison.tuned, comparison.best, comparison.paper
-    return [
-        cell.title,
-        f"{comparison.snr:g}",
-        _stage_label(comparison.stage),
-        tuned.priors,
-        _pm(*tuned.score[:2]),
-        f"{_pm(*best.score[:2])} {best.priors}",
-        "; ".join(f"{_pm(*p.score[:2])} {p.priors}" for p in paper),
-        " / ".join(
-            [f"{100 * tuned.separation:.0f}", f"{100 * best.separation:.0f}"]
-            + [f"{100 * p.separation:.0f}" for p in paper]
-        ),
-        " / ".join(f"{e.correlation:.2f}" for e in (tuned, best, *paper)),
-        "met" if comparison.met else "**not met**",
-    ]
-
-
-def _tuned_section(data):
-    from .tuned import SEPARATION_SHARE
-
-    header = [
-        "cell",
-        "SNR (dB)",
-        "exponent, smoother",
-        "tuned EP, PM (dB): median (range)",
-        "score, tuned (mm)",
-        "score, best of the map (mm)",
-        "score, paper's cell (mm)",
-        "separation (%): tuned / best / paper",
-        "correlation: tuned / best / paper",
-        "target",
-    ]
-    rows, met, total = [], 0, 0
-    edges, seeds = {"ep_snr_db": 0, "pm_snr_db": 0}, 0
-    for cell in CELLS:
-        result = data.results.get(cell.name)
-        if result is None:
-            continue
-        for comparison in result.tuned:
-            rows.append(_tuned_row(cell, comparison))
-            met += comparison.met
-            total += 1
-            if comparison.stage == TUNING:  # the same choices serve both stages
-                seeds += comparison.tuned.score[2]
-                for column, count in comparison.edges.items():
-                    edges[column] += count
-    return [
-        "## Priors chosen by the data",
-        "",
-        "For each seed and noise level, `skf_ref.tune` chose EP-SNR and PM-SNR by the "
-        "marginal likelihood of that seed's data alone (13 x 13 grid over -20 .. 40 dB, the "
-        "fine map's span, then a bounded refinement), knowing the noise level as every other "
-        "run does, and nothing of the sources. The likelihood does not depend on the "
-        "exponent or the smoother, so the same priors serve the tuning setting and the "
-        "smoothed one. Beside them: the *best of the map*, the cell of the fine EP x PM map "
-        "(and the paper's corners) with the lowest mean score at that setting, chosen with "
-        "the ground truth (a minimum over 49 cells, so optimistic), and the paper's "
-        "recommended cells (tuning: (EP 0, PM 0) at 10 and 20 dB, (EP 20, PM 0) and (EP 0, "
-        "PM 20) at 30 dB; smoothed: (EP 20, PM 0)). Score: the mean of the two peak errors "
-        "(mean ± SE over seeds); separation: share of seeds; correlation: mean of the two "
-        "time-course correlations. Target (stated before the runs): the tuned priors reach "
-        f"at least {100 * SEPARATION_SHARE:.0f} % of the best cell's separation rate and their "
-        f"mean score is within one SE of the best cell's. Met in {met} of {total} settings. "
-        f"Of the {seeds} choices (cells x noise levels x seeds), EP-SNR lies on an end of the "
-        f"search range in {edges['ep_snr_db']} and PM-SNR in {edges['pm_snr_db']}: there the "
-        "likelihood would go further than the range the study searches. "
-        "Rows: `<cell>/tuned_priors.csv`.",
-        "",
-        *_markdown_table(header, rows),
-        "",
-    ]
-
-
 # --------------------------------------------------------------------------- the page
 
 
@@ -753,7 +671,7 @@ def overview_text(data):
         *_findings_matrix(data),
         *_controls_section(data),
         *_lone_section(data),
-        *_tuned_section(data),
+        *tuned_section(data),
         *deviations,
         *_discussion_section(data),
     ]

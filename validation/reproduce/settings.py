@@ -35,6 +35,7 @@ __all__ = [
     "STAGES",
     "TIE_MM",
     "TUNED_PRIOR",
+    "TUNE_CRITERIA",
     "TUNE_GRID",
     "TUNING",
     "VARIANTS",
@@ -63,6 +64,8 @@ FINE_RANGE = (-20.0, 40.0)
 #: Values per SNR of the coarse grid :func:`skf_ref.tune` searches for the tuned priors
 #: (over FINE_RANGE, the fine map's span).
 TUNE_GRID = 13
+#: The criteria of :func:`skf_ref.tune` the tuned priors are chosen by, each on its own.
+TUNE_CRITERIA = ("likelihood", "discrepancy")
 #: Mean scores closer than this (mm) are tied: peak errors are grid distances, so exact ties
 #: between cells are common; the tolerance only absorbs rounding of the means.
 TIE_MM = 1e-6
@@ -268,7 +271,12 @@ def manifest(settings, testing_data=None):
         paper_grid=settings.paper_grid(),
         fine_grids=settings.fine_grids(),
         control_grids=settings.control_grids(),
-        tuned_priors=dict(grid=TUNE_GRID, range_db=list(FINE_RANGE), stages=list(STAGES)),
+        tuned_priors=dict(
+            grid=TUNE_GRID,
+            range_db=list(FINE_RANGE),
+            stages=list(STAGES),
+            criteria=list(TUNE_CRITERIA),
+        ),
         variants={name: [what, data, exp] for name, (what, data, exp) in VARIANTS.items()},
         testing_data_sha256=None if testing_data is None else _dataset_digest(testing_data),
         n_positions=settings.n_positions,
