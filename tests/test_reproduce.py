@@ -22,6 +22,7 @@ import pandas as pd
 import pytest
 
 from validation import reproduce as rp
+from validation.reproduce.rules_v3 import VERDICTS_V3
 from validation.reproduce.sensitivity import SENSITIVITY, crop_head
 from validation.reproduce.settings import (
     CELLS,
@@ -137,10 +138,10 @@ class TestReport:
     def test_rules_come_before_the_findings(self, reports):
         text = (reports[0][0] / "REPORT.md").read_text()
         v1, v2 = text.index("## Decision rules\n"), text.index("## Decision rules, v2")
-        assert 0 < v1 < v2 < text.index("## Findings")
+        assert 0 < v1 < v2 < text.index("## Decision rules, v3") < text.index("## Findings")
         assert text.count("Generated:") == 1
 
-    def test_v1_and_v2_verdicts_in_every_cell_and_not_run_without_the_dataset(self, reports):
+    def test_v1_v2_v3_verdicts_in_every_cell_and_not_run_without_the_dataset(self, reports):
         rows = _findings_rows((reports[0][0] / "REPORT.md").read_text())
         assert [row.split("|")[1].strip() for row in rows] == [f"F{i}" for i in range(1, 7)]
         for row in rows:
@@ -150,9 +151,8 @@ class TestReport:
                 if cell.realistic:
                     assert text == "not run"
                 else:
-                    assert [_verdict(v) for v in text.split(" / ")] in [
-                        [a, b] for a in VERDICTS for b in VERDICTS
-                    ]
+                    v1, v2, v3 = (_verdict(v) for v in text.split(" / "))
+                    assert v1 in VERDICTS and v2 in VERDICTS and v3 in VERDICTS_V3
 
     def test_every_linked_figure_exists(self, reports):
         folder = reports[0][0]
@@ -215,10 +215,10 @@ class TestReport:
         # snr, exponent, smoother (none, rts-standardized), seed
         assert len(table) == 3 * 4 * 2 * QUICK_SEEDS
 
-    def test_each_cell_page_has_both_rule_sets(self, reports):
+    def test_each_cell_page_has_every_rule_set(self, reports):
         for cell in SPHERE_CELLS:
             text = (reports[0][0] / cell.name / "CELL.md").read_text()
-            for title in ("## Findings by the v1 rules", "## Findings by the v2 rules"):
+            for title in (f"## Findings by the v{v} rules" for v in (1, 2, 3)):
                 rows = _findings_rows(text, title)
                 assert [row.split("|")[1].strip() for row in rows] == [
                     f"F{i}" for i in range(1, 7)

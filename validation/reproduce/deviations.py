@@ -79,9 +79,12 @@ def deviations_section(data):
         "",
         f"Each variant that could move a verdict was run on the best cell, **{best_title}** "
         "(the most v2 findings reproduced, a partly counting half; ties to the cell nearest the "
-        "paper's setup; rule fixed before the runs), on the settings the rules read, with the "
+        "paper's setup; rule fixed before the runs, on the v2 verdicts, so v3 does not move "
+        f"it), on the settings the rules read, {data.settings.seeds} seeds each, with the "
         "superficial-only control for the v2 rules. Verdicts v1 / v2; '(moved)' where either "
-        f"differs from the cell as run. Files: `variants/`. {_variants_note()}",
+        f"differs from the cell as run. Files: `variants/`. {_variants_note()} The variants "
+        "are not judged by v3: its F4 and F6 read the deep-only control, which the variants "
+        "did not run.",
         "",
         *_markdown_table(header, rows),
         "",

@@ -12,11 +12,14 @@ from .controls import controls_section, echo_text, lone_section, lone_text
 from .deviations import deviations_section, variants_text
 from .findings import (
     NOT_RUN,
+    VERSIONS,
     f3_text,
+    f6_text,
     factor_lines,
     findings_matrix,
     in_short,
     rules_text_v2,
+    rules_text_v3,
     ties_text,
 )
 from .report import RULES_TEXT, _markdown_table
@@ -55,7 +58,8 @@ class Overview:
 
 
 def _summary_lines(data):
-    lines = [echo_text(data), "", ties_text(data), "", f3_text(data), "", lone_text(data), ""]
+    lines = [echo_text(data), "", f6_text(data), "", ties_text(data), "", f3_text(data), ""]
+    lines += [lone_text(data), ""]
     if data.variants:
         lines += [variants_text(data), ""]
     return lines
@@ -73,17 +77,12 @@ def _discussion_section(data):
         "From the verdicts and the criteria of the four cells (a factor *moves* a verdict or "
         "a criterion when changing it, the other factor fixed, changes the outcome):",
         "",
-        in_short(data, "v1") + " " + in_short(data, "v2"),
-        "",
-        "By the v1 rules:",
-        "",
-        *factor_lines(data, "v1"),
-        "",
-        "By the v2 rules:",
-        "",
-        *factor_lines(data, "v2"),
+        " ".join(in_short(data, version) for version in VERSIONS),
         "",
     ]
+    for version in VERSIONS:
+        rest = " (F4 and F6; the others are v2's)" if version == "v3" else ""
+        lines += [f"By the {version} rules{rest}:", "", *factor_lines(data, version), ""]
     return lines
 
 
@@ -256,6 +255,7 @@ def overview_text(data):
         *_header(data),
         RULES_TEXT,
         *rules_text_v2(),
+        *rules_text_v3(),
         *findings_matrix(data),
         *controls_section(data),
         *lone_section(data),

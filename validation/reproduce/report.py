@@ -275,6 +275,23 @@ def _findings_section(findings, title="## Findings"):
     ]
 
 
+def _findings_v3_section(findings):
+    """The v3 verdicts: F4 and F6 with their numbers, the others as by v2 (same rule)."""
+    from .rules_v3 import CHANGED
+
+    rows = [
+        [
+            f"F{f.number}",
+            f.paper,
+            f.measured if f.number in CHANGED else "as by the v2 rule (above)",
+            f"**{f.verdict}**",
+        ]
+        for f in findings
+    ]
+    header = ["Finding", "Paper", "Measured (mean ± SE, median [Q1, Q3] over seeds)", "Verdict"]
+    return ["## Findings by the v3 rules", "", *_markdown_table(header, rows), ""]
+
+
 def _tables_section(data):
     paper, fine, settings = data.paper, data.fine, data.settings
     corner_header = ["SNR (dB)", "setting", *(_cell(k) for k in CORNERS)]
@@ -391,6 +408,8 @@ class ReportData:
         From :func:`run_sensitivity` (post hoc; its section follows the discussion).
     findings_v2 : list of Finding
         The v2 verdicts (:mod:`validation.reproduce.rules_v2`).
+    findings_v3 : list of Finding
+        The v3 verdicts (:mod:`validation.reproduce.rules_v3`).
     truth : skf_ref.simulate.Truth
         The sources placed in this head.
     title : str
@@ -407,6 +426,7 @@ class ReportData:
     diagnostics: dict
     sensitivity: object = None
     findings_v2: list = None
+    findings_v3: list = None
     truth: object = None
     title: str = "sphere, volume grid"
 
@@ -431,11 +451,13 @@ def report_text(data):
     v2 = []
     if data.findings_v2:
         v2 = _findings_section(data.findings_v2, "## Findings by the v2 rules")
+    if data.findings_v3:
+        v2 += _findings_v3_section(data.findings_v3)
     lines = [
         f"# SKF reproduction, {data.title}: Prasikala et al. (2025), P20/N20 study",
         "",
         *_header(data.settings, data.head, data.manifest, data.paper, data.fine, data.truth),
-        "The decision rules (v1 and v2) are stated in `../REPORT.md`.",
+        "The decision rules (v1, v2 and v3) are stated in `../REPORT.md`.",
         "",
         *_findings_section(data.findings, "## Findings by the v1 rules"),
         *v2,

@@ -35,14 +35,14 @@ reported side by side. What changes (docs/model.md §7 for the findings):
   chosen by the v2 verdicts (``cells.best_cell``), so it does not move; the variants ran
   without the deep-only control and are not judged by v3.
 
-Why v2's F6 changed (``rule_v3_f6`` gives the details). Applied to the committed full run,
-v2's residual test (a seed is separated only if its deep excess is at most zero) held in all
-240 seeds of the four cells, three noise levels and two smoothers: the lower bound sits near
-minus the true ratio whenever the superficial spread fills the deep region, smoothed or not.
-v2's F6 thus measured detection only, and each level was decided by detection (the volume
-grids at 10 dB) or by the strict comparison with no smoothing failing on ties at the
-ceiling (cortex + thalamus at 20 and 30 dB, 10 of 10 seeds both ways): its "partly" in every
-cell never came from the residual deep activity the paper speaks of.
+Why v2's F6 changed (``rule_v3_f6`` gives the details). Applied to the full run committed
+before v3 was written, v2's residual test (a seed is separated only if its deep excess is at
+most zero) held in all 240 seeds of the four cells, three noise levels and two smoothers: the
+lower bound sits near minus the true ratio whenever the superficial spread fills the deep
+region, smoothed or not. v2's F6 thus measured detection only, and each level was decided by
+detection (the volume grids at 10 dB) or by the strict comparison with no smoothing failing
+on ties at the ceiling (cortex + thalamus at 20 and 30 dB, 10 of 10 seeds both ways): its
+"partly" in every cell never came from the residual deep activity the paper speaks of.
 
 The rules are pure functions of the paper-grid table and the control tables
 (:func:`evaluate_v3`), checked on hand-made tables in ``tests/test_rules_v3.py``.
@@ -222,14 +222,15 @@ def rule_v3_f6(table, controls):
     What was wrong with v2's rule. Its residual test, a seed separated only if its deep
     excess (the lower bound) is at most zero, holds by construction whenever the superficial
     source's spread fills the deep region, smoothed or not: the excess then sits near minus
-    the true ratio (0.25). In the committed full run it held in all 240 seeds x cells x noise
-    levels x smoothers, so a "separated" seed was one with both sources detected, and v2's
-    F6 measured detection, not the residual. Which sub-condition decided each level there:
-    detection, smoothed, in fewer than half of the seeds (sphere and BEM volume grids at
-    10 dB: 2 and 0 of 10), or the strict comparison with no smoothing ("in a larger fraction
-    of seeds") failing on ties at the ceiling (cortex + thalamus, sphere and BEM, at 20 and
-    30 dB: 10 of 10 seeds both ways); every other level held. Its "partly" in every cell came
-    from those, never from the residual deep activity the paper speaks of.
+    the true ratio (0.25). In the full run committed before v3 was written it held in all
+    240 seeds x cells x noise levels x smoothers, so a "separated" seed was one with both
+    sources detected, and v2's F6 measured detection, not the residual. Which sub-condition
+    decided each level there: detection, smoothed, in fewer than half of the seeds (sphere
+    and BEM volume grids at 10 dB: 2 and 0 of 10), or the strict comparison with no
+    smoothing ("in a larger fraction of seeds") failing on ties at the ceiling (cortex +
+    thalamus, sphere and BEM, at 20 and 30 dB: 10 of 10 seeds both ways); every other level
+    held. Its "partly" in every cell came from those, never from the residual deep activity
+    the paper speaks of.
 
     What v3 changes, at each noise level: (a) suppression is read on both bounds of the
     residual, seed by seed against no smoothing (the lower bound, the deep excess, and the
@@ -272,7 +273,7 @@ def rule_v3_f6(table, controls):
             below = int((smooth[bound] < plain[bound]).sum())
             lowered[bound] = 2 * below > n
             difference = median_iqr(smooth[bound] - plain[bound], 3)
-            parts.append(f"{name} in {below}/{n} seeds (difference {difference})")
+            parts.append(f"{name} in {below}/{n} seeds (smoothed - not smoothed {difference})")
         detected = smooth["deep_detected"] & smooth["superficial_detected"]
         separated = int((detected & (smooth["alone_db"] < -DETECTION_DB)).sum())
         clear = 2 * separated >= n
