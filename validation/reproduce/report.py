@@ -34,13 +34,15 @@ from .settings import (
 from .stats import (
     _best,
     _cell,
-    _column_stats,
     _fine_means,
-    _fmt,
+    _mean_se,
     _pm,
     _select,
     _setting_label,
     corner_stats,
+    iqr_text,
+    mean_and_iqr,
+    median_iqr,
 )
 
 __all__ = ["RULES_TEXT", "ReportData", "report_text"]
@@ -108,34 +110,34 @@ def _corner_rows(paper):
     rows = []
     for snr in NOISE_LEVELS:
         for exponent, smoother in (TUNING, SMOOTHED):
-            stats = corner_stats(paper, snr, exponent, smoother)
-            best = _best(stats)
-            cells = [
-                ("**{}**" if key in best else "{}").format(_pm(row["mean"], row["se"]))
-                for key, row in stats.iterrows()
-            ]
+            best = _best(corner_stats(paper, snr, exponent, smoother))
+            cells = []
+            for key in CORNERS:
+                scores = _select(paper, snr, *key, exponent, smoother)["score"]
+                mean = _pm(*_mean_se(scores)[:2])
+                cells.append(f"{f'**{mean}**' if key in best else mean}<br>{median_iqr(scores)}")
             rows.append([f"{snr:g}", _setting_label(exponent, smoother), *cells])
     return rows
 
 
 def _tuned_row(paper, snr, exponent, smoother, diag):
-    """One row of the EP 20, PM 0 table: a setting's aggregates and its diagnostic."""
+    """One row of the EP 20, PM 0 table: a setting's distributions and its diagnostic."""
     rows = _select(paper, snr, *TUNED_PRIOR, exponent, smoother)
-    stats, n = _column_stats(rows), len(rows)
+    n = len(rows)
     return [
         f"{snr:g}",
         f"{exponent:g}",
         smoother,
-        _pm(*stats["score"][:2]),
-        _fmt(stats["deep_error_mm"][0]),
-        _fmt(stats["superficial_error_mm"][0]),
-        _fmt(stats["deep_region_db"][0]),
-        _fmt(stats["deep_region_at_superficial_peak_db"][0]),
-        _pm(*stats["echo"][:2], digits=3),
+        mean_and_iqr(rows["score"]),
+        median_iqr(rows["deep_error_mm"]),
+        median_iqr(rows["superficial_error_mm"]),
+        median_iqr(rows["deep_region_db"]),
+        median_iqr(rows["deep_region_at_superficial_peak_db"]),
+        median_iqr(rows["echo"], 3),
         f"{int(rows['deep_detected'].astype(bool).sum())}/{n}",
         f"{int(rows['separation'].astype(bool).sum())}/{n}",
         "{0}/{2}, {1}/{2}".format(*diag.low, n),
-        _pm(*diag.balance),
+        iqr_text(*diag.balance_quartiles),
     ]
 
 
@@ -313,15 +315,20 @@ def _tables_section(data):
     return [
         "## Tables",
         "",
-        "### 2 × 2 prior grids: score (mm), mean ± SE over seeds (bold: lowest)",
+        "### 2 × 2 prior grids: score (mm) over seeds",
+        "",
+        f"Each cell: mean ± SE over the {settings.seeds} seeds, what the rules read (bold: the "
+        "lowest mean), above the median [first quartile, third quartile].",
         "",
         *_markdown_table(corner_header, _corner_rows(paper)),
         "",
         f"### Every exponent and smoother at EP {TUNED_PRIOR[0]:g}, PM {TUNED_PRIOR[1]:g}",
         "",
-        "Means over seeds; region levels in dB re. the global maximum at that time; counts "
-        "are seeds. The last two columns are post-hoc diagnostics, added after the verdicts "
-        "were seen and used by no rule: the seeds whose global maximum at the deep (1.5 ms) "
+        f"Median [first quartile, third quartile] over the {settings.seeds} seeds (the score "
+        "also as mean ± SE, what F5 (b) reads, above its median); region levels in dB re. the "
+        "global maximum at that time; counts are seeds. The last two columns are post-hoc "
+        "diagnostics, added after the verdicts were seen and used by no rule: the seeds "
+        "whose global maximum at the deep (1.5 ms) "
         "and at the superficial (2.5 ms) peak lies below the lowest electrode "
         f"({(electrode_floor(data.head) - data.head.origin[2]) * 1e3:.0f} mm re. the centre of "
         "the brain compartment's sphere, fitted to the inner skull for a BEM; the grid reaches "

@@ -14,7 +14,15 @@ import pandas as pd
 
 from .settings import CORNERS, NOISE_LEVELS, TIE_MM, TUNING
 
-__all__ = ["cell_stats", "corner_stats", "iqr_text", "median_iqr", "quartiles", "summary_table"]
+__all__ = [
+    "cell_stats",
+    "corner_stats",
+    "iqr_text",
+    "mean_and_iqr",
+    "median_iqr",
+    "quartiles",
+    "summary_table",
+]
 
 #: The columns aggregated over seeds (mean, SE, median and quartiles) in ``summary.csv``.
 _SUMMARY_COLUMNS = (
@@ -253,6 +261,19 @@ def median_iqr(values, digits=1):
     '12.0 [11.5, 16.5]'
     """
     return iqr_text(*quartiles(values)[:3], digits=digits)
+
+
+def mean_and_iqr(values, digits=1):
+    """``mean ± SE`` (what the v1 and v2 rules read) over ``median [Q1, Q3]``.
+
+    The two lines of one cell of a Markdown table (``<br>`` between them).
+
+    Examples
+    --------
+    >>> mean_and_iqr([10.0, 12.0, 12.0, 30.0])
+    '16.0 ± 4.7<br>12.0 [11.5, 16.5]'
+    """
+    return f"{_pm(*_mean_se(values)[:2], digits)}<br>{median_iqr(values, digits)}"
 
 
 def _cell(key):
