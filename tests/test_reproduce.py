@@ -48,7 +48,7 @@ from validation.reproduce.tuned import TUNED, compare_tuned, paper_cells
 QUICK = ["--quick", "--jobs", "2"]
 QUICK_SEEDS = 2
 SPHERE_CELLS = [cell for cell in CELLS if not cell.realistic]
-N_CELL_FIGURES = 6 + 1 + 4 + 2  # prior grids, exponents, average maps, fine maps
+N_CELL_FIGURES = 6 + 1 + 2 + 4 + 2  # prior grids, exponents, seed points, averages, fine maps
 FIGURE_LINK = re.compile(r"!\[[^\]]*\]\(([^)]+)\)")
 
 

@@ -200,7 +200,7 @@ def _judge_cell(result, settings, wanted, out, n_jobs=1):
     result.findings = evaluate(result.paper)
     result.findings_v2 = evaluate_v2(result.paper, result.controls)
     result.findings_v3 = evaluate_v3(result.paper, result.controls)
-    result.figures = make_figures(folder, runs, settings, result.fine)
+    result.figures = make_figures(folder, runs, settings, result.fine, result.controls)
     result.diagnostics = diagnostics(runs, settings.seeds)
     if result.cell.name == "sphere-volume":
         result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, n_jobs)

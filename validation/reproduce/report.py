@@ -367,12 +367,30 @@ def _figures_section(figures, settings):
             f"| ![{left}]({left}) | ![{right}]({right}) |",
             "",
         ]
-    name = figures["exponents"]
+    name, seeds, bounds = figures["exponents"], figures["exponent_seeds"], figures["bounds"]
     lines += [
         f"### Standardization exponent, 30 dB, EP {TUNED_PRIOR[0]:g}, PM {TUNED_PRIOR[1]:g}, "
         f"{SMOOTHED[1]}, seed 0",
         "",
         f"![{name}]({name})",
+        "",
+        f"### Standardization exponent over seeds, 30 dB, EP {TUNED_PRIOR[0]:g}, PM "
+        f"{TUNED_PRIOR[1]:g}",
+        "",
+        f"Each of the {settings.seeds} seeds is a point (jittered sideways), the bar its "
+        f"median; without smoothing (grey) and with {SMOOTHED[1]} (blue). F5's numbers.",
+        "",
+        f"![{seeds}]({seeds})",
+        "",
+        "### The echo and its two bounds over seeds (F4, F6)",
+        "",
+        f"Left: F4's readings at each noise level's best tuning cell, v1's echo and v3's two "
+        f"bounds (the deep excess over the superficial-only control, the deep-only control's "
+        f"echo). Right: how {SMOOTHED[1]} (exponent {SMOOTHED[0]:g}, EP {TUNED_PRIOR[0]:g}, PM "
+        f"{TUNED_PRIOR[1]:g}) changes each reading, seed by seed (F6 (a): below zero is "
+        "suppression). Points are seeds, bars medians.",
+        "",
+        f"![{bounds}]({bounds})",
         "",
         f"### Average reconstructions (amplitude averaged over {settings.seeds} seeds)",
         "",

@@ -68,6 +68,7 @@ __all__ = [
     "evaluate_v3",
     "rule_v3_f4",
     "rule_v3_f6",
+    "seed_bounds",
     "verdict_v3",
 ]
 
@@ -139,16 +140,30 @@ def _deep_alone(table, controls, snr, ep, pm, exponent, smoother):
     return alone.loc[list(seeds)]
 
 
-def _bounds(table, controls, snr, ep, pm, exponent, smoother):
-    """Per seed: both bounds, the detections and the deep source's level alone at 2.5 ms.
+def seed_bounds(table, controls, snr, ep, pm, exponent, smoother):
+    """Per seed of one setting: both bounds, v1's echo, the detections, the deep source alone.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The paper-grid rows (both sources).
+    controls : dict
+        ``"superficial"`` and ``"deep"`` control tables with the same setting and seeds.
+    snr, ep, pm, exponent : float
+    smoother : str
 
     Returns
     -------
     pandas.DataFrame
-        Indexed by seed: ``lower`` (the deep excess), ``upper`` (the deep-only echo),
-        ``deep_detected``, ``superficial_detected`` (of the run with both sources) and
-        ``alone_db``, the deep-only control's deep-region maximum at 2.5 ms re. the global
-        maximum of the run with both sources then (dB).
+        Indexed by seed: ``lower`` (the deep excess), ``upper`` (the deep-only echo), ``raw``
+        (v1's echo of the run with both sources), ``deep_detected``, ``superficial_detected``
+        (of that run) and ``alone_db``, the deep-only control's deep-region maximum at
+        2.5 ms re. the global maximum of the run with both sources then (dB).
+
+    Raises
+    ------
+    ValueError
+        If a control lacks a seed of the table's (naming the setting).
     """
     joined = deep_excess(table, controls["superficial"], snr, ep, pm, exponent, smoother)
     alone = _deep_alone(table, controls, snr, ep, pm, exponent, smoother)
@@ -158,10 +173,11 @@ def _bounds(table, controls, snr, ep, pm, exponent, smoother):
     return joined.assign(
         lower=joined["excess"],
         upper=alone["echo"],
+        raw=joined["echo"],
         alone_db=alone_db,
         deep_detected=joined["deep_detected"].astype(bool),
         superficial_detected=joined["superficial_detected"].astype(bool),
-    )[["lower", "upper", "deep_detected", "superficial_detected", "alone_db"]]
+    )[["lower", "upper", "raw", "deep_detected", "superficial_detected", "alone_db"]]
 
 
 def _present(values):
@@ -197,7 +213,7 @@ def rule_v3_f4(table, controls):
     criteria, texts, levels = [], [], []
     for snr in NOISE_LEVELS:
         ep, pm = _best(corner_stats(table, snr))[0]
-        bounds = _bounds(table, controls, snr, ep, pm, *TUNING)
+        bounds = seed_bounds(table, controls, snr, ep, pm, *TUNING)
         lower, upper = _present(bounds["lower"]), _present(bounds["upper"])
         levels.append(between(lower, upper))
         criteria += [
@@ -260,8 +276,8 @@ def rule_v3_f6(table, controls):
     exponent, smoother = SMOOTHED
     criteria, texts, levels = [], [], []
     for snr in NOISE_LEVELS:
-        smooth = _bounds(table, controls, snr, ep, pm, exponent, smoother)
-        plain = _bounds(table, controls, snr, ep, pm, exponent, "none")
+        smooth = seed_bounds(table, controls, snr, ep, pm, exponent, smoother)
+        plain = seed_bounds(table, controls, snr, ep, pm, exponent, "none")
         if not smooth.index.equals(plain.index):
             raise ValueError(
                 f"F6 pairs seeds: {smoother!r} has seeds {list(smooth.index)} and no "
