@@ -182,8 +182,15 @@ class TestReport:
                 # F4's corners (12) and every exponent and smoother at EP 20, PM 0 (36),
                 # one setting shared, at each seed
                 assert len(control) == (12 + 36 - 3) * QUICK_SEEDS
+            summary = pd.read_csv(folder / "summary.csv")
+            for column in ("score", "echo"):  # the quartiles beside mean and SE
+                q1, median, q3 = (summary[f"{column}_{q}"] for q in ("q1", "median", "q3"))
+                assert ((q1 <= median) & (median <= q3)).all()
         text = (reports[0][0] / "REPORT.md").read_text()
         assert "## Controls" in text and "## A lone source" in text
+        for title in ("## Controls", "## A lone source"):  # median [Q1, Q3] and seeds
+            section = _section(text, title)
+            assert "| seeds |" in section and re.search(r"\d \[-?\d", section)
         assert not (reports[0][0] / "variants").exists()  # the variants: full runs only
 
     def test_regenerable_byte_for_byte(self, reports):

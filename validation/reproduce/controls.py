@@ -58,6 +58,7 @@ def _control_rows(result):
 
 
 def controls_section(data):
+    """The controls section: per cell and noise level, the echo and the residual."""
     header = [
         "SNR (dB)",
         "seeds",
@@ -118,6 +119,7 @@ def lone_source_errors(result, snr=30.0):
 
 
 def lone_section(data):
+    """The lone-source section: each source alone, by exponent and smoother."""
     header = ["cell", "source", "exponent", "seeds", *SMOOTHERS]
     rows = []
     shifts = []
@@ -204,6 +206,7 @@ def echo_text(data):
 
 
 def lone_text(data):
+    """The discussion's paragraph on the lone deep source under each smoother."""
     parts = []
     for cell in CELLS:
         result = data.results.get(cell.name)

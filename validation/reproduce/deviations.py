@@ -55,6 +55,7 @@ def _variant_cells(variant, base):
 
 
 def deviations_section(data):
+    """The deviations section: each variant's verdicts on the best cell."""
     base = data.results[data.best]
     variants = {v.name: v for v in data.variants}
     header = ["deviation", "could move", *(f"F{i}" for i in range(1, 7))]
@@ -116,6 +117,7 @@ OPENMEEG_NOTE = (
 
 
 def variants_text(data):
+    """The discussion's paragraph on the verdicts the variants moved."""
     base = data.results[data.best]
     moves = []
     for variant in data.variants:

@@ -78,6 +78,7 @@ def _verdict(finding):
 
 
 def findings_matrix(data):
+    """The verdicts of every rule set in every cell, as REPORT.md lines."""
     header = ["Finding", "Paper", *(f"{cell.title} (v1 / v2 / v3)" for cell in CELLS)]
     rows = []
     for index in range(6):
@@ -201,6 +202,7 @@ def in_short(data, version):
 
 
 def factor_lines(data, version):
+    """Per finding (and criterion) of one rule set, which factor moves it (list items)."""
     names = [cell.name for cell in CELLS]
     flags = {name: _flags(data.results[name], version) for name in names}
     lines = []
@@ -226,6 +228,7 @@ def factor_lines(data, version):
 
 
 def ties_text(data):
+    """The discussion's paragraph on F1 (b) and F2 (b) by v1 and by v2's margins."""
     parts = []
     for index, name in ((0, "F1 (b)"), (1, "F2 (b)")):
         held_v1 = [
@@ -249,6 +252,7 @@ def _holds(data, cell, version, index, criterion):
 
 
 def f3_text(data):
+    """The discussion's paragraph on the measures whose best cell at 30 dB fits F3."""
     parts = []
     for cell in CELLS:
         if cell.name not in data.results:
