@@ -4,7 +4,6 @@ import json
 from pathlib import Path
 
 import pandas as pd
-import pytest
 
 from validation.reproduce.recommend import MIN_AUC, auc, recommend
 

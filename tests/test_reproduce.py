@@ -22,6 +22,7 @@ import pandas as pd
 import pytest
 
 from validation import reproduce as rp
+from validation.reproduce.rules_v3 import VERDICTS_V3
 from validation.reproduce.sensitivity import SENSITIVITY, crop_head
 from validation.reproduce.settings import (
     CELLS,
@@ -48,7 +49,7 @@ from validation.reproduce.tuned import TUNED, compare_tuned, paper_cells
 QUICK = ["--quick", "--jobs", "2"]
 QUICK_SEEDS = 2
 SPHERE_CELLS = [cell for cell in CELLS if not cell.realistic]
-N_CELL_FIGURES = 6 + 1 + 4 + 2  # prior grids, exponents, average maps, fine maps
+N_CELL_FIGURES = 6 + 1 + 2 + 4 + 2  # prior grids, exponents, seed points, averages, fine maps
 FIGURE_LINK = re.compile(r"!\[[^\]]*\]\(([^)]+)\)")
 
 
@@ -140,10 +141,10 @@ class TestReport:
     def test_rules_come_before_the_findings(self, reports):
         text = (reports[0][0] / "REPORT.md").read_text()
         v1, v2 = text.index("## Decision rules\n"), text.index("## Decision rules, v2")
-        assert 0 < v1 < v2 < text.index("## Findings")
+        assert 0 < v1 < v2 < text.index("## Decision rules, v3") < text.index("## Findings")
         assert text.count("Generated:") == 1
 
-    def test_v1_and_v2_verdicts_in_every_cell_and_not_run_without_the_dataset(self, reports):
+    def test_v1_v2_v3_verdicts_in_every_cell_and_not_run_without_the_dataset(self, reports):
         rows = _findings_rows((reports[0][0] / "REPORT.md").read_text())
         assert [row.split("|")[1].strip() for row in rows] == [f"F{i}" for i in range(1, 7)]
         for row in rows:
@@ -153,9 +154,8 @@ class TestReport:
                 if cell.realistic:
                     assert text == "not run"
                 else:
-                    assert [_verdict(v) for v in text.split(" / ")] in [
-                        [a, b] for a in VERDICTS for b in VERDICTS
-                    ]
+                    v1, v2, v3 = (_verdict(v) for v in text.split(" / "))
+                    assert v1 in VERDICTS and v2 in VERDICTS and v3 in VERDICTS_V3
 
     def test_every_linked_figure_exists(self, reports):
         folder = reports[0][0]
@@ -185,8 +185,15 @@ class TestReport:
                 # F4's corners (12) and every exponent and smoother at EP 20, PM 0 (36),
                 # one setting shared, at each seed
                 assert len(control) == (12 + 36 - 3) * QUICK_SEEDS
+            summary = pd.read_csv(folder / "summary.csv")
+            for column in ("score", "echo"):  # the quartiles beside mean and SE
+                q1, median, q3 = (summary[f"{column}_{q}"] for q in ("q1", "median", "q3"))
+                assert ((q1 <= median) & (median <= q3)).all()
         text = (reports[0][0] / "REPORT.md").read_text()
         assert "## Controls" in text and "## A lone source" in text
+        for title in ("## Controls", "## A lone source"):  # median [Q1, Q3] and seeds
+            section = _section(text, title)
+            assert "| seeds |" in section and re.search(r"\d \[-?\d", section)
         assert not (reports[0][0] / "variants").exists()  # the variants: full runs only
 
     def test_regenerable_byte_for_byte(self, reports):
@@ -218,10 +225,10 @@ class TestReport:
         # snr, exponent, smoother (none, rts-standardized), seed
         assert len(table) == 3 * 4 * 2 * QUICK_SEEDS
 
-    def test_each_cell_page_has_both_rule_sets(self, reports):
+    def test_each_cell_page_has_every_rule_set(self, reports):
         for cell in SPHERE_CELLS:
             text = (reports[0][0] / cell.name / "CELL.md").read_text()
-            for title in ("## Findings by the v1 rules", "## Findings by the v2 rules"):
+            for title in (f"## Findings by the v{v} rules" for v in (1, 2, 3)):
                 rows = _findings_rows(text, title)
                 assert [row.split("|")[1].strip() for row in rows] == [
                     f"F{i}" for i in range(1, 7)

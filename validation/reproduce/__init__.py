@@ -41,8 +41,10 @@ Modules: ``settings`` (grid constants, presets, the manifest), ``stats`` (statis
 seeds of a sweep table), ``rules`` (the decision rules), ``runs`` (the figure runs checked
 against the sweep, post-hoc diagnostics), ``sensitivity`` (post hoc: F5 and F6 on the grid
 above the lowest electrode, ``sensitivity.csv``), ``figures`` (matplotlib, imported lazily),
-``report`` and ``discussion`` (REPORT.md), ``cli`` (arguments, results files, sweeps,
-:func:`main`).
+``report`` and ``discussion`` (a cell's CELL.md), ``cli`` (arguments, results files, sweeps,
+:func:`main`). The 2 x 2 design: ``cells`` (each cell's sweeps and the variants),
+``overview`` (REPORT.md, assembled from ``findings``: the rule sets and verdicts,
+``controls``: the controls and lone sources, and ``deviations``).
 """
 
 from .cells import CellResult, Variant, best_cell, run_cell_sweeps, run_variants

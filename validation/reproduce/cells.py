@@ -100,7 +100,7 @@ class CellResult:
     paper, fine : pandas.DataFrame
     controls : dict
         ``"deep"`` and ``"superficial"`` -> the control tables.
-    findings, findings_v2 : list of Finding
+    findings, findings_v2, findings_v3 : list of Finding
     figures, diagnostics : dict
     sensitivity : Sensitivity or None
     truth : skf_ref.simulate.Truth
@@ -116,6 +116,7 @@ class CellResult:
     controls: dict
     findings: list = field(default_factory=list)
     findings_v2: list = field(default_factory=list)
+    findings_v3: list = field(default_factory=list)
     figures: dict = field(default_factory=dict)
     diagnostics: dict = field(default_factory=dict)
     sensitivity: object = None
@@ -163,6 +164,9 @@ def _score(findings):
 
 def best_cell(results):
     """The cell with the most v2 findings reproduced (partly: half); ties by closeness.
+
+    Fixed before the runs, on v2; the v3 rules, written later, do not enter it, so the best
+    cell (and the variants run on it) does not move with them.
 
     Parameters
     ----------

@@ -194,12 +194,14 @@ def output_folder(settings, out=None):
 def _judge_cell(result, settings, wanted, out, n_jobs=1):
     """Verdicts, figures, diagnostics (and the sphere grid's sensitivity) of one cell."""
     from .rules_v2 import evaluate_v2
+    from .rules_v3 import evaluate_v3
 
     folder = out / result.cell.name
     runs = CheckedRuns(result.head, result.paper)
     result.findings = evaluate(result.paper)
     result.findings_v2 = evaluate_v2(result.paper, result.controls)
-    result.figures = make_figures(folder, runs, settings, result.fine)
+    result.findings_v3 = evaluate_v3(result.paper, result.controls)
+    result.figures = make_figures(folder, runs, settings, result.fine, result.controls)
     result.diagnostics = diagnostics(runs, settings.seeds)
     if result.cell.name == "sphere-volume":
         result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, n_jobs)
@@ -218,6 +220,7 @@ def _judge_cell(result, settings, wanted, out, n_jobs=1):
         diagnostics=result.diagnostics,
         sensitivity=result.sensitivity,
         findings_v2=result.findings_v2,
+        findings_v3=result.findings_v3,
         truth=result.truth,
         title=result.cell.title,
     )
@@ -348,9 +351,11 @@ def main(argv=None):
     for cell in settings.cells:
         result = results[cell.name]
         verdicts = ", ".join(
-            f"F{a.number} {a.verdict} / {b.verdict}"
-            for a, b in zip(result.findings, result.findings_v2, strict=True)
+            f"F{a.number} {a.verdict} / {b.verdict} / {c.verdict}"
+            for a, b, c in zip(
+                result.findings, result.findings_v2, result.findings_v3, strict=True
+            )
         )
-        print(f"{cell.title} (v1 / v2): {verdicts}")
+        print(f"{cell.title} (v1 / v2 / v3): {verdicts}")
     print(f"reproduce: wrote {out / 'REPORT.md'} in {elapsed:.1f} s")
     return 0

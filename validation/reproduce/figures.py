@@ -12,6 +12,7 @@ from skf_ref.files import atomic_path
 
 from .settings import (
     CORNERS,
+    EXPONENTS,
     NOISE_LEVELS,
     RANKED_EXPONENTS,
     SMOOTHED,
@@ -19,9 +20,20 @@ from .settings import (
     TUNED_PRIOR,
     TUNING,
 )
-from .stats import _best, _cell, _fine_means, _setting_label, corner_stats
+from .stats import _best, _cell, _fine_means, _select, _setting_label, corner_stats, quartiles
 
-__all__ = ["make_figures", "plot_fine_map", "plot_source_placement", "save_source_placement"]
+__all__ = [
+    "make_figures",
+    "plot_fine_map",
+    "plot_seed_points",
+    "plot_source_placement",
+    "save_source_placement",
+]
+
+#: Seed of the horizontal jitter of the per-seed points (fixed: the PNGs regenerate exactly).
+JITTER_SEED = 0
+#: Half-width of that jitter and of the median's bar, in units of the x axis.
+JITTER, MEDIAN_HALF_WIDTH = 0.05, 0.09
 
 
 def _save(fig, path):
@@ -64,6 +76,105 @@ def _exponent_figure(out, runs):
     )
     _save(fig, out / "exponents_30dB.png")
     return "exponents_30dB.png"
+
+
+def plot_seed_points(ax, groups, rng):
+    """Each seed as a jittered point and the median as a bar, one group per x position.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    groups : list of (float, array_like, str)
+        (x position, the values over seeds, colour); NaN values are left out.
+    rng : numpy.random.Generator
+        Draws the horizontal jitter (seed it for reproducible figures).
+    """
+    for x, values, colour in groups:
+        values = np.asarray(values, dtype=float)
+        values = values[np.isfinite(values)]
+        jitter = rng.uniform(-JITTER, JITTER, values.size)
+        ax.plot(x + jitter, values, "o", ms=3.5, mfc=colour, mec="none", alpha=0.75)
+        median = quartiles(values)[0]
+        if np.isfinite(median):
+            ax.plot([x - MEDIAN_HALF_WIDTH, x + MEDIAN_HALF_WIDTH], [median] * 2, "k-", lw=2)
+
+
+#: Colour of each smoother in the per-seed figures.
+_SMOOTHER_COLOURS = {"none": "0.45", SMOOTHED[1]: "tab:blue"}
+
+
+def _exponent_seeds_figure(out, table, seeds):
+    """F5's numbers at 30 dB, EP 20, PM 0: every exponent, with and without smoothing."""
+    from matplotlib.figure import Figure
+
+    panels = (
+        ("score", "score (mm)"),
+        ("deep_region_db", "deep region at 1.5 ms (dB re. max)"),
+        ("deep_region_at_superficial_peak_db", "deep region at 2.5 ms (dB re. max)"),
+    )
+    rng = np.random.default_rng(JITTER_SEED)
+    fig = Figure(figsize=(12.0, 3.6), layout="constrained")
+    axes = fig.subplots(1, len(panels))
+    for ax, (column, label) in zip(axes, panels, strict=True):
+        groups = []
+        for i, exponent in enumerate(EXPONENTS):
+            for offset, smoother in zip((-0.2, 0.2), _SMOOTHER_COLOURS, strict=True):
+                rows = _select(table, 30.0, *TUNED_PRIOR, exponent, smoother)
+                groups.append((i + offset, rows[column], _SMOOTHER_COLOURS[smoother]))
+        plot_seed_points(ax, groups, rng)
+        ax.set_xticks(range(len(EXPONENTS)), [f"{e:g}" for e in EXPONENTS])
+        ax.set_xlabel("standardization exponent")
+        ax.set_ylabel(label)
+    for smoother, colour in _SMOOTHER_COLOURS.items():
+        name = "no smoothing" if smoother == "none" else smoother
+        axes[0].plot([], [], "o", mfc=colour, mec="none", label=name)
+    axes[0].plot([], [], "k-", lw=2, label="median")
+    axes[0].legend(fontsize=8)
+    fig.suptitle(
+        f"30 dB, EP {TUNED_PRIOR[0]:g}, PM {TUNED_PRIOR[1]:g}: each of {seeds} seeds a point"
+    )
+    _save(fig, out / "exponents_30dB_seeds.png")
+    return "exponents_30dB_seeds.png"
+
+
+def _bounds_figure(out, table, controls, seeds):
+    """F4's and F6's readings per seed: the echo and its two bounds, and smoothing's change."""
+    from matplotlib.figure import Figure
+
+    from .rules_v3 import seed_bounds
+
+    readings = (
+        ("raw", "v1 echo (both sources)", "0.45"),
+        ("lower", "lower bound: deep excess", "tab:blue"),
+        ("upper", "upper bound: deep-only echo", "tab:orange"),
+    )
+    rng = np.random.default_rng(JITTER_SEED)
+    fig = Figure(figsize=(11.0, 3.8), layout="constrained")
+    left, right = fig.subplots(1, 2)
+    placed = list(zip((-0.25, 0.0, 0.25), readings, strict=True))
+    exponent, smoother = SMOOTHED
+    for i, snr in enumerate(NOISE_LEVELS):
+        best = _best(corner_stats(table, snr))[0]
+        tuning = seed_bounds(table, controls, snr, *best, *TUNING)
+        smooth = seed_bounds(table, controls, snr, *TUNED_PRIOR, exponent, smoother)
+        plain = seed_bounds(table, controls, snr, *TUNED_PRIOR, exponent, "none")
+        plot_seed_points(left, [(i + dx, tuning[key], c) for dx, (key, _, c) in placed], rng)
+        changes = [(i + dx, smooth[key] - plain[key], c) for dx, (key, _, c) in placed]
+        plot_seed_points(right, changes, rng)
+    for ax in (left, right):
+        ax.axhline(0.0, color="k", lw=0.8, ls=":")
+        ax.set_xticks(range(len(NOISE_LEVELS)), [f"{snr:g} dB" for snr in NOISE_LEVELS])
+    left.set_ylabel("echo (ratio at 2.5 / 1.5 ms minus 0.25)")
+    left.set_title(f"F4: no smoothing, exponent {TUNING[0]:g}, best tuning cell")
+    right.set_ylabel("smoothed minus not smoothed")
+    right.set_title(f"F6 (a): {smoother}, exponent {exponent:g}, EP 20, PM 0")
+    for _, label, colour in readings:
+        left.plot([], [], "o", mfc=colour, mec="none", label=label)
+    left.plot([], [], "k-", lw=2, label="median")
+    left.legend(fontsize=8)
+    fig.suptitle(f"The echo and its bounds: each of {seeds} seeds a point")
+    _save(fig, out / "echo_bounds.png")
+    return "echo_bounds.png"
 
 
 def _average_figures(out, runs, seeds):
@@ -149,7 +260,7 @@ def _fine_figures(out, fine, settings):
     return names
 
 
-def make_figures(out, runs, settings, fine):
+def make_figures(out, runs, settings, fine, controls):
     """Draw every figure of the report into ``out``; return their file names.
 
     Parameters
@@ -160,15 +271,20 @@ def make_figures(out, runs, settings, fine):
     settings : Settings
     fine : pandas.DataFrame
         The fine-map sweep table.
+    controls : dict
+        ``"deep"`` and ``"superficial"`` control tables.
 
     Returns
     -------
     dict
-        ``prior_grid``, ``exponents``, ``average``, ``fine_map`` -> file names.
+        ``prior_grid``, ``exponents``, ``exponent_seeds``, ``bounds``, ``average``,
+        ``fine_map`` -> file names.
     """
     return dict(
         prior_grid=_prior_grid_figures(out, runs),
         exponents=_exponent_figure(out, runs),
+        exponent_seeds=_exponent_seeds_figure(out, runs.table, settings.seeds),
+        bounds=_bounds_figure(out, runs.table, controls, settings.seeds),
         average=_average_figures(out, runs, settings.seeds),
         fine_map=_fine_figures(out, fine, settings),
     )

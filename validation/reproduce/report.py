@@ -34,13 +34,15 @@ from .settings import (
 from .stats import (
     _best,
     _cell,
-    _column_stats,
     _fine_means,
-    _fmt,
+    _mean_se,
     _pm,
     _select,
     _setting_label,
     corner_stats,
+    iqr_text,
+    mean_and_iqr,
+    median_iqr,
 )
 
 __all__ = ["RULES_TEXT", "ReportData", "report_text"]
@@ -108,34 +110,34 @@ def _corner_rows(paper):
     rows = []
     for snr in NOISE_LEVELS:
         for exponent, smoother in (TUNING, SMOOTHED):
-            stats = corner_stats(paper, snr, exponent, smoother)
-            best = _best(stats)
-            cells = [
-                ("**{}**" if key in best else "{}").format(_pm(row["mean"], row["se"]))
-                for key, row in stats.iterrows()
-            ]
+            best = _best(corner_stats(paper, snr, exponent, smoother))
+            cells = []
+            for key in CORNERS:
+                scores = _select(paper, snr, *key, exponent, smoother)["score"]
+                mean = _pm(*_mean_se(scores)[:2])
+                cells.append(f"{f'**{mean}**' if key in best else mean}<br>{median_iqr(scores)}")
             rows.append([f"{snr:g}", _setting_label(exponent, smoother), *cells])
     return rows
 
 
 def _tuned_row(paper, snr, exponent, smoother, diag):
-    """One row of the EP 20, PM 0 table: a setting's aggregates and its diagnostic."""
+    """One row of the EP 20, PM 0 table: a setting's distributions and its diagnostic."""
     rows = _select(paper, snr, *TUNED_PRIOR, exponent, smoother)
-    stats, n = _column_stats(rows), len(rows)
+    n = len(rows)
     return [
         f"{snr:g}",
         f"{exponent:g}",
         smoother,
-        _pm(*stats["score"][:2]),
-        _fmt(stats["deep_error_mm"][0]),
-        _fmt(stats["superficial_error_mm"][0]),
-        _fmt(stats["deep_region_db"][0]),
-        _fmt(stats["deep_region_at_superficial_peak_db"][0]),
-        _pm(*stats["echo"][:2], digits=3),
+        mean_and_iqr(rows["score"]),
+        median_iqr(rows["deep_error_mm"]),
+        median_iqr(rows["superficial_error_mm"]),
+        median_iqr(rows["deep_region_db"]),
+        median_iqr(rows["deep_region_at_superficial_peak_db"]),
+        median_iqr(rows["echo"], 3),
         f"{int(rows['deep_detected'].astype(bool).sum())}/{n}",
         f"{int(rows['separation'].astype(bool).sum())}/{n}",
         "{0}/{2}, {1}/{2}".format(*diag.low, n),
-        _pm(*diag.balance),
+        iqr_text(*diag.balance_quartiles),
     ]
 
 
@@ -275,6 +277,23 @@ def _findings_section(findings, title="## Findings"):
     ]
 
 
+def _findings_v3_section(findings):
+    """The v3 verdicts: F4 and F6 with their numbers, the others as by v2 (same rule)."""
+    from .rules_v3 import CHANGED
+
+    rows = [
+        [
+            f"F{f.number}",
+            f.paper,
+            f.measured if f.number in CHANGED else "as by the v2 rule (above)",
+            f"**{f.verdict}**",
+        ]
+        for f in findings
+    ]
+    header = ["Finding", "Paper", "Measured (mean ± SE, median [Q1, Q3] over seeds)", "Verdict"]
+    return ["## Findings by the v3 rules", "", *_markdown_table(header, rows), ""]
+
+
 def _tables_section(data):
     paper, fine, settings = data.paper, data.fine, data.settings
     corner_header = ["SNR (dB)", "setting", *(_cell(k) for k in CORNERS)]
@@ -296,15 +315,20 @@ def _tables_section(data):
     return [
         "## Tables",
         "",
-        "### 2 × 2 prior grids: score (mm), mean ± SE over seeds (bold: lowest)",
+        "### 2 × 2 prior grids: score (mm) over seeds",
+        "",
+        f"Each cell: mean ± SE over the {settings.seeds} seeds, what the rules read (bold: the "
+        "lowest mean), above the median [first quartile, third quartile].",
         "",
         *_markdown_table(corner_header, _corner_rows(paper)),
         "",
         f"### Every exponent and smoother at EP {TUNED_PRIOR[0]:g}, PM {TUNED_PRIOR[1]:g}",
         "",
-        "Means over seeds; region levels in dB re. the global maximum at that time; counts "
-        "are seeds. The last two columns are post-hoc diagnostics, added after the verdicts "
-        "were seen and used by no rule: the seeds whose global maximum at the deep (1.5 ms) "
+        f"Median [first quartile, third quartile] over the {settings.seeds} seeds (the score "
+        "also as mean ± SE, what F5 (b) reads, above its median); region levels in dB re. the "
+        "global maximum at that time; counts are seeds. The last two columns are post-hoc "
+        "diagnostics, added after the verdicts were seen and used by no rule: the seeds "
+        "whose global maximum at the deep (1.5 ms) "
         "and at the superficial (2.5 ms) peak lies below the lowest electrode "
         f"({(electrode_floor(data.head) - data.head.origin[2]) * 1e3:.0f} mm re. the centre of "
         "the brain compartment's sphere, fitted to the inner skull for a BEM; the grid reaches "
@@ -343,12 +367,30 @@ def _figures_section(figures, settings):
             f"| ![{left}]({left}) | ![{right}]({right}) |",
             "",
         ]
-    name = figures["exponents"]
+    name, seeds, bounds = figures["exponents"], figures["exponent_seeds"], figures["bounds"]
     lines += [
         f"### Standardization exponent, 30 dB, EP {TUNED_PRIOR[0]:g}, PM {TUNED_PRIOR[1]:g}, "
         f"{SMOOTHED[1]}, seed 0",
         "",
         f"![{name}]({name})",
+        "",
+        f"### Standardization exponent over seeds, 30 dB, EP {TUNED_PRIOR[0]:g}, PM "
+        f"{TUNED_PRIOR[1]:g}",
+        "",
+        f"Each of the {settings.seeds} seeds is a point (jittered sideways), the bar its "
+        f"median; without smoothing (grey) and with {SMOOTHED[1]} (blue). F5's numbers.",
+        "",
+        f"![{seeds}]({seeds})",
+        "",
+        "### The echo and its two bounds over seeds (F4, F6)",
+        "",
+        f"Left: F4's readings at each noise level's best tuning cell, v1's echo and v3's two "
+        f"bounds (the deep excess over the superficial-only control, the deep-only control's "
+        f"echo). Right: how {SMOOTHED[1]} (exponent {SMOOTHED[0]:g}, EP {TUNED_PRIOR[0]:g}, PM "
+        f"{TUNED_PRIOR[1]:g}) changes each reading, seed by seed (F6 (a): below zero is "
+        "suppression). Points are seeds, bars medians.",
+        "",
+        f"![{bounds}]({bounds})",
         "",
         f"### Average reconstructions (amplitude averaged over {settings.seeds} seeds)",
         "",
@@ -391,6 +433,8 @@ class ReportData:
         From :func:`run_sensitivity` (post hoc; its section follows the discussion).
     findings_v2 : list of Finding
         The v2 verdicts (:mod:`validation.reproduce.rules_v2`).
+    findings_v3 : list of Finding
+        The v3 verdicts (:mod:`validation.reproduce.rules_v3`).
     truth : skf_ref.simulate.Truth
         The sources placed in this head.
     title : str
@@ -407,6 +451,7 @@ class ReportData:
     diagnostics: dict
     sensitivity: object = None
     findings_v2: list = None
+    findings_v3: list = None
     truth: object = None
     title: str = "sphere, volume grid"
 
@@ -431,11 +476,13 @@ def report_text(data):
     v2 = []
     if data.findings_v2:
         v2 = _findings_section(data.findings_v2, "## Findings by the v2 rules")
+    if data.findings_v3:
+        v2 += _findings_v3_section(data.findings_v3)
     lines = [
         f"# SKF reproduction, {data.title}: Prasikala et al. (2025), P20/N20 study",
         "",
         *_header(data.settings, data.head, data.manifest, data.paper, data.fine, data.truth),
-        "The decision rules (v1 and v2) are stated in `../REPORT.md`.",
+        "The decision rules (v1, v2 and v3) are stated in `../REPORT.md`.",
         "",
         *_findings_section(data.findings, "## Findings by the v1 rules"),
         *v2,

@@ -14,7 +14,7 @@ from itertools import product
 import numpy as np
 
 from .settings import EXPONENTS, NOISE_LEVELS, SMOOTHERS, TUNED_PRIOR
-from .stats import _mean_se, _select
+from .stats import _mean_se, _select, quartiles
 
 __all__ = ["CheckedRuns", "Diagnostic", "diagnostics", "electrode_floor"]
 
@@ -133,11 +133,14 @@ class Diagnostic:
         Mean and SE over seeds of the deep-to-superficial peak balance (dB):
         ``20 log10`` of the deep region's maximum at 1.5 ms over the superficial region's
         maximum at 2.5 ms, what the paper's jointly normalized time courses show.
+    balance_quartiles : tuple of float
+        Median, first and third quartiles over seeds of the same balance.
     """
 
     low: tuple
     n: int
     balance: tuple
+    balance_quartiles: tuple
 
 
 def _diagnose(rows, floor):
@@ -148,7 +151,12 @@ def _diagnose(rows, floor):
     balance = 20.0 * np.log10(
         rows["deep_max_at_deep_peak"] / rows["superficial_max_at_superficial_peak"]
     )
-    return Diagnostic(low=low, n=len(rows), balance=_mean_se(balance)[:2])
+    return Diagnostic(
+        low=low,
+        n=len(rows),
+        balance=_mean_se(balance)[:2],
+        balance_quartiles=quartiles(balance)[:3],
+    )
 
 
 def diagnostics(runs, seeds):

@@ -14,9 +14,17 @@ import pandas as pd
 
 from .settings import CORNERS, NOISE_LEVELS, TIE_MM, TUNING
 
-__all__ = ["cell_stats", "corner_stats", "summary_table"]
+__all__ = [
+    "cell_stats",
+    "corner_stats",
+    "iqr_text",
+    "mean_and_iqr",
+    "median_iqr",
+    "quartiles",
+    "summary_table",
+]
 
-#: The columns aggregated as mean and SE in ``summary.csv`` and the report's tables.
+#: The columns aggregated over seeds (mean, SE, median and quartiles) in ``summary.csv``.
 _SUMMARY_COLUMNS = (
     "score",
     "deep_error_mm",
@@ -54,15 +62,50 @@ def _select(table, snr, ep, pm, exponent, smoother):
     return _with_score(rows.sort_values("seed"))
 
 
+def _finite(values):
+    values = np.asarray(values, dtype=float)
+    return values[np.isfinite(values)]
+
+
 def _mean_se(values):
     """Mean, standard error (ddof 1; NaN for one value) and count of the finite values."""
-    values = np.asarray(values, dtype=float)
-    values = values[np.isfinite(values)]
+    values = _finite(values)
     n = values.size
     if n == 0:
         return math.nan, math.nan, 0
     se = float(np.std(values, ddof=1) / np.sqrt(n)) if n > 1 else math.nan
     return float(np.mean(values)), se, n
+
+
+def quartiles(values):
+    """Median, first and third quartiles, and count of the finite values.
+
+    The distribution over seeds that every table of the report shows beside (or instead
+    of) the mean: peak errors are grid distances and take two or three values across seeds,
+    which a mean ± SE hides. Quartiles interpolate linearly between order statistics
+    (numpy's default, as ``pandas.Series.quantile``).
+
+    Parameters
+    ----------
+    values : array_like, shape (n,)
+
+    Returns
+    -------
+    median, q1, q3 : float
+        NaN if no value is finite.
+    n : int
+        Finite values.
+
+    Examples
+    --------
+    >>> quartiles([4.0, 1.0, 3.0, 2.0, 5.0, float("nan")])
+    (3.0, 2.0, 4.0, 5)
+    """
+    values = _finite(values)
+    if values.size == 0:
+        return math.nan, math.nan, math.nan, 0
+    q1, median, q3 = (float(v) for v in np.percentile(values, [25.0, 50.0, 75.0]))
+    return median, q1, q3, int(values.size)
 
 
 def _column_stats(rows):
@@ -156,9 +199,10 @@ def summary_table(paper, fine):
     Returns
     -------
     pandas.DataFrame
-        One row per (sweep, snr_db, ep_snr_db, pm_snr_db, exponent, smoother): ``n``, mean
-        and SE of each of score, peak errors, region levels and echo, and the fraction of
-        seeds with deep detected and with separation.
+        One row per (sweep, snr_db, ep_snr_db, pm_snr_db, exponent, smoother): ``n``, mean,
+        SE, median and first and third quartiles (``_q1``, ``_q3``, :func:`quartiles`) of
+        each of score, peak errors, region levels and echo, and the fraction of seeds with
+        deep detected and with separation.
     """
     keys = ["snr_db", "ep_snr_db", "pm_snr_db", "exponent", "smoother"]
     frames = []
@@ -168,6 +212,9 @@ def summary_table(paper, fine):
             record = dict(sweep=name, **dict(zip(keys, key, strict=True)), n=len(rows))
             for column, (mean, se, _) in _column_stats(rows).items():
                 record[f"{column}_mean"], record[f"{column}_se"] = mean, se
+                median, q1, q3, _ = quartiles(rows[column])
+                record[f"{column}_median"], record[f"{column}_q1"] = median, q1
+                record[f"{column}_q3"] = q3
             for column in ("deep_detected", "separation"):
                 record[f"{column}_rate"] = float(rows[column].astype(bool).mean())
             frames.append(record)
@@ -190,6 +237,43 @@ def _pm(mean, se, digits=1):
     if not math.isfinite(mean):
         return "n/a"
     return f"{_fmt(mean, digits)} ± {_fmt(se, digits)}"
+
+
+def iqr_text(median, q1, q3, digits=1):
+    """``median [Q1, Q3]`` in fixed point, or "n/a" for an undefined median.
+
+    Examples
+    --------
+    >>> iqr_text(3.0, 2.0, 4.25, digits=2)
+    '3.00 [2.00, 4.25]'
+    """
+    if not math.isfinite(median):
+        return "n/a"
+    return f"{_fmt(median, digits)} [{_fmt(q1, digits)}, {_fmt(q3, digits)}]"
+
+
+def median_iqr(values, digits=1):
+    """``median [Q1, Q3]`` of the finite values (:func:`quartiles`, :func:`iqr_text`).
+
+    Examples
+    --------
+    >>> median_iqr([10.0, 12.0, 12.0, 30.0])
+    '12.0 [11.5, 16.5]'
+    """
+    return iqr_text(*quartiles(values)[:3], digits=digits)
+
+
+def mean_and_iqr(values, digits=1):
+    """``mean ± SE`` (what the v1 and v2 rules read) over ``median [Q1, Q3]``.
+
+    The two lines of one cell of a Markdown table (``<br>`` between them).
+
+    Examples
+    --------
+    >>> mean_and_iqr([10.0, 12.0, 12.0, 30.0])
+    '16.0 ± 4.7<br>12.0 [11.5, 16.5]'
+    """
+    return f"{_pm(*_mean_se(values)[:2], digits)}<br>{median_iqr(values, digits)}"
 
 
 def _cell(key):
