@@ -6,44 +6,49 @@ section: §2.2 for the filter, §2.3 for the smoother, §3.1 for the priors) and
 written out in docs/model.md. The original SKF is Lahtinen et al., Clin. Neurophysiol. 168
 (2024).
 
-Two layers, and the arrows point one way:
+The package in layers, each importing only those listed before it:
 
-- **the method**: :func:`reconstruct` and its paths (:mod:`skf_ref.dense`,
-  :mod:`skf_ref.kalman`, :mod:`skf_ref.spectral`), the result type (:mod:`skf_ref.result`),
-  the model (:mod:`skf_ref.model`), the priors (:mod:`skf_ref.priors`), the
-  standardization (:mod:`skf_ref.standardization`), input checks (:mod:`skf_ref.checks`),
-  memory, files and provenance, and the conformance cases with their comparison
-  (:mod:`skf_ref.conformance`, :func:`compare`, :mod:`skf_ref.suspects`);
-- **the study**: the head model (:mod:`skf_ref.head`), the P20/N20 scenario
-  (:mod:`skf_ref.simulate`), regions and metrics (:mod:`skf_ref.regions`,
-  :mod:`skf_ref.metrics`), figures (:mod:`skf_ref.plots`), sweeps (:mod:`skf_ref.sweep`)
-  and the command line (:mod:`skf_ref.cli`).
+- :mod:`skf_ref._utils`: private helpers (input checks, atomic files, memory, provenance,
+  the log);
+- :mod:`skf_ref.method`: the SKF itself in numpy, scipy and filterpy: :func:`reconstruct`,
+  its three paths, the result type, the priors and their tuning, the standardization;
+- :mod:`skf_ref.io`: MNE-Python objects and files: :func:`apply_skf`, source estimates,
+  readers and writers, outputs larger than memory (MNE, zarr and Dask are optional);
+- :mod:`skf_ref.conformance`: cross-checking another implementation: the cases,
+  :func:`compare` and the catalogue of known mistakes;
+- :mod:`skf_ref.study`: the paper's P20/N20 study: head models, the scenario, metrics,
+  figures, sweeps, MNE's inverse methods beside the SKF, the demo;
+- :mod:`skf_ref.cli`: the ``skf-ref`` command line.
 
-The study imports the method, never the reverse: ``import skf_ref`` and a reconstruction
-import neither matplotlib, nor a head model, nor pandas. Public names are loaded on first
-use.
+``import skf_ref`` and a reconstruction import neither matplotlib, nor MNE, nor pandas.
+Public names are loaded on first use. The module paths of 0.2 (``skf_ref.method.paths.dense``,
+``skf_ref.method.tuning``, ...) still import, with a ``FutureWarning`` naming the new home.
 """
 
 import importlib
+import sys
+import types
 
+from ._utils.moved import install as _install_moved
 from .version import __version__
 
 # Public names and the module that defines each: imported on first use, so that importing a
 # submodule (the command line's, say) does not load numpy, scipy and filterpy first.
 _HOMES = {
-    "InputError": "checks",
-    "InputTypeError": "checks",
-    "StandardizedKalmanFilter": "kalman",
-    "Reconstruction": "result",
-    "reconstruct": "inverse",
-    "PAPER_SETTING": "settings",
-    "RECOMMENDED_SETTING": "settings",
-    "apply_skf": "apply",
-    "prior_variance": "priors",
-    "evolution_variance": "priors",
-    "lead_field_amplitude": "priors",
-    "priors_from_snr": "priors",
-    "compare": "comparison",
+    "InputError": "_utils.checks",
+    "InputTypeError": "_utils.checks",
+    "StandardizedKalmanFilter": "method.paths.filterpy_skf",
+    "Reconstruction": "method.result",
+    "reconstruct": "method.reconstruct",
+    "tune": "method.tuning",
+    "PAPER_SETTING": "method.settings",
+    "RECOMMENDED_SETTING": "method.settings",
+    "prior_variance": "method.priors",
+    "evolution_variance": "method.priors",
+    "lead_field_amplitude": "method.priors",
+    "priors_from_snr": "method.priors",
+    "apply_skf": "io.apply",
+    "compare": "conformance.compare",
 }
 
 __all__ = [*_HOMES, "__version__"]
@@ -59,3 +64,18 @@ def __getattr__(name):
 
 def __dir__():
     return sorted({*globals(), *_HOMES})
+
+
+class _Package(types.ModuleType):
+    """skf_ref's module type: a public function keeps its name when the old module path of
+    the same name is imported (``skf_ref.tune`` is the function; ``from skf_ref.tune import
+    tune``, the 0.2 path, binds nothing over it)."""
+
+    def __setattr__(self, name, value):
+        if name in _HOMES and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
+_install_moved()

@@ -21,8 +21,8 @@ import pytest
 
 import skf_ref
 from skf_ref import InputError, InputTypeError, reconstruct
-from skf_ref.files import atomic_path
-from skf_ref.sweep import read_results, run_sweep
+from skf_ref._utils.atomic_files import atomic_path
+from skf_ref.study.sweep import read_results, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = os.environ | {"PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}

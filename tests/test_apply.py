@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from skf_ref import InputError, InputTypeError, apply_skf, reconstruct
-from skf_ref.apply import prepare
+from skf_ref.io.apply import prepare
 
 # Two computations of the same whitened model (MNE's whitener and an eigendecomposition
 # here, or a projection and a whitening) differ by rounding amplified by cond(S) < 1e4.

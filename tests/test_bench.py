@@ -19,7 +19,7 @@ def test_every_path_runs_at_a_tiny_size(tmp_path):
 
 
 def test_paths_past_the_memory_guard_are_reported_not_run(monkeypatch):
-    from skf_ref import memory
+    from skf_ref._utils import memory
 
     monkeypatch.setattr(memory, "available_memory", lambda: 2**20)
     table = bench.benchmark(

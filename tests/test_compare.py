@@ -14,7 +14,7 @@ from scipy.io import savemat
 from skf_ref import InputError, compare
 from skf_ref.cli import main
 from skf_ref.conformance import OUTPUTS, TOLERANCE, cases, export
-from skf_ref.suspects import SUSPECTS
+from skf_ref.conformance.mistakes import SUSPECTS
 
 ENV = os.environ | {"PYTHONPATH": str(Path(__file__).resolve().parents[1])}
 CASES = {case.name: case for case in cases()}

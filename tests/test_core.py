@@ -11,8 +11,9 @@ import pytest
 from filterpy.kalman import KalmanFilter
 from scipy import linalg, stats
 
-from skf_ref import Reconstruction, StandardizedKalmanFilter, dense, priors_from_snr, reconstruct
-from skf_ref.memory import covariance_memory
+from skf_ref import Reconstruction, StandardizedKalmanFilter, priors_from_snr, reconstruct
+from skf_ref._utils.memory import covariance_memory
+from skf_ref.method.paths import dense
 
 METHODS = ("filterpy", "dense", "spectral")
 # Paths for general linear-Gaussian models (spectral needs A = a I, P_0 = theta0 I, Q = q I

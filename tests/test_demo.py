@@ -1,10 +1,10 @@
-"""The demo as a library function (:func:`skf_ref.demo.run_demo`): what the CLI calls."""
+"""The demo as a library function (:func:`skf_ref.study.demo.run_demo`): what the CLI calls."""
 
 import numpy as np
 import pytest
 
 import skf_ref
-from skf_ref.demo import DATA, OUTPUTS, run_demo
+from skf_ref.study.demo import DATA, OUTPUTS, run_demo
 
 SMALL = dict(head="sphere", source_space="volume", n_positions=500)
 
@@ -37,7 +37,7 @@ def test_the_settings_are_the_recommended_and_the_papers(demo):
 
 
 def test_nothing_is_written_without_a_folder_and_everything_with_one(demo, tmp_path):
-    from skf_ref.demo import write
+    from skf_ref.study.demo import write
 
     write(demo, tmp_path / "new")
     assert sorted(p.name for p in (tmp_path / "new").iterdir()) == sorted(OUTPUTS)

@@ -5,8 +5,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from skf_ref import metrics, regions
-from skf_ref.result import amplitude_from_components
+from skf_ref.method.result import amplitude_from_components
+from skf_ref.study import metrics, regions
 
 # A line of positions 5 mm apart along x (metres): distances between them are exact.
 POSITIONS = np.column_stack([np.arange(0, 0.1, 0.005), np.zeros(20), np.zeros(20)])

@@ -7,7 +7,9 @@ print nothing). The numbers are then checked again as numbers, not as printed te
 
 import contextlib
 import importlib
+import importlib.util
 import io
+import pkgutil
 import re
 from pathlib import Path
 
@@ -34,21 +36,12 @@ MAX_CONDITION = 20.0
 # The sections the code cites as "docs/model.md §N".
 SECTIONS = (1, 2, 3, 4, 5, 6, 7, 8)
 
-# Modules whose names the document uses relative to the package ("dense.rts").
-MODULES = (
-    "checks",
-    "dense",
-    "head",
-    "inverse",
-    "kalman",
-    "metrics",
-    "model",
-    "priors",
-    "regions",
-    "result",
-    "simulate",
-    "spectral",
-    "standardization",
+# The packages whose modules the document names by their own name ("dense.rts").
+PACKAGES = ("skf_ref.method.paths", "skf_ref.method", "skf_ref.study")
+MODULES = tuple(
+    info.name
+    for package in PACKAGES
+    for info in pkgutil.iter_modules(importlib.import_module(package).__path__)
 )
 
 
@@ -148,14 +141,17 @@ def test_smoothers_differ_before_the_last_step(run):
 def _resolve(name):
     """The object a dotted name like ``dense.rts`` or ``KalmanFilter.update`` refers to.
 
-    Names start with ``skf_ref``, one of its modules (relative to the package),
-    ``filterpy``, or ``KalmanFilter`` (filterpy's, which the subclass extends).
+    Names start with ``skf_ref``, a module of one of :data:`PACKAGES`, ``filterpy``, or
+    ``KalmanFilter`` (filterpy's, which the subclass extends).
     """
     parts = name.split(".")
     if parts[0] == "KalmanFilter":
         parts = ["filterpy", "kalman", *parts]
     elif parts[0] not in ("skf_ref", "filterpy"):
-        parts = ["skf_ref", *parts]
+        package = next(
+            p for p in PACKAGES if importlib.util.find_spec(f"{p}.{parts[0]}") is not None
+        )
+        parts = [*package.split("."), *parts]
     for split in range(len(parts), 0, -1):
         try:
             obj = importlib.import_module(".".join(parts[:split]))

@@ -4,7 +4,7 @@ import doctest
 import re
 from pathlib import Path
 
-from skf_ref import metrics
+from skf_ref.study import metrics
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"

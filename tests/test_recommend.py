@@ -68,7 +68,7 @@ def test_every_entry_point_defaults_to_the_recommended_setting():
 
     import skf_ref
     from skf_ref.cli import build_parser
-    from skf_ref.demo import run_demo
+    from skf_ref.study.demo import run_demo
 
     for function in (skf_ref.reconstruct, skf_ref.apply_skf, run_demo):
         defaults = inspect.signature(function).parameters

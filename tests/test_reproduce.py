@@ -277,7 +277,7 @@ class TestReport:
 
 
 def test_crop_keeps_the_positions_at_or_above_the_lowest_electrode():
-    from skf_ref import simulate
+    from skf_ref.study import scenario as simulate
 
     head = simulate.make_head_model(500)
     cropped = crop_head(head)

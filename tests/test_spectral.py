@@ -10,9 +10,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from skf_ref import dense, priors_from_snr, reconstruct
-from skf_ref.model import StateSpaceModel
-from skf_ref.spectral import SpectralModel
+from skf_ref import priors_from_snr, reconstruct
+from skf_ref.method.model import StateSpaceModel
+from skf_ref.method.paths import dense
+from skf_ref.method.paths.spectral import SpectralModel
 
 # Both paths are exact algebra, so they differ by rounding only, and rounding grows with the
 # condition numbers kappa of S_t and P_{t|t-1}: the dense path solves with S and takes eigh
@@ -185,7 +186,7 @@ def test_backward_in_chunks_equals_the_step_by_step_recursion(n_times, transitio
     # narrow arrays take CHUNK_STEPS steps per matrix product: the same linear map, each
     # number a combination of at most CHUNK_STEPS + 1 terms with coefficients <= 1 / a
     # (gains below 1 / a, as the filter's are), so rounding stays at a few eps
-    from skf_ref.singular import CHUNK_COLUMNS, backward
+    from skf_ref.method.paths.singular_basis import CHUNK_COLUMNS, backward
 
     rng = np.random.default_rng(n_times)
     gain = rng.uniform(0.05, 0.99, n_times - 1) / transition
@@ -205,7 +206,7 @@ def test_backward_in_chunks_equals_the_step_by_step_recursion(n_times, transitio
 )
 def test_thin_svd_in_blocks_against_numpy(monkeypatch, n_channels, n_sources, block_rows):
     # the first stage's blocks: one, many, a last one narrower than n_channels, wide ones
-    from skf_ref import singular
+    from skf_ref.method.paths import singular_basis as singular
 
     monkeypatch.setattr(singular, "_SVD_BLOCK_BYTES", 8 * n_channels * block_rows)
     rng = np.random.default_rng(n_sources)
@@ -230,7 +231,7 @@ def test_thin_svd_in_blocks_against_numpy(monkeypatch, n_channels, n_sources, bl
 
 @pytest.mark.parametrize("exponent", [0.0, 0.5, 0.75, 1.0, 1.25, 2.0, 0.3, 4.5])
 def test_standardized_means_equal_the_z_of_standardize(exponent):
-    from skf_ref.standardization import standardize, standardized_means
+    from skf_ref.method.standardization import standardize, standardized_means
 
     rng = np.random.default_rng(3)
     w, whitened = rng.uniform(1e-3, 10.0, (5, 40)), rng.standard_normal((5, 40))

@@ -52,7 +52,7 @@ def test_zarr_store_equals_the_arrays(tmp_path, smoother):
 
 
 def test_zarr_store_is_whole_or_absent(tmp_path, monkeypatch):
-    from skf_ref.result import Reconstruction
+    from skf_ref.method.result import Reconstruction
 
     path = tmp_path / "r.zarr"
     rec = run("rts-state")
@@ -83,7 +83,7 @@ def test_a_failed_write_leaves_no_store_and_says_why(tmp_path, monkeypatch):
     # reach the caller, and the half-written store must go
     import errno
 
-    from skf_ref import stream
+    from skf_ref.io import zarr_dask as stream
 
     written = []
 
@@ -153,7 +153,7 @@ def test_dask_array_on_a_local_cluster_equals_the_arrays(cluster, smoother):
 def test_sweep_on_a_local_cluster_of_processes(cluster, tmp_path):
     import joblib
 
-    from skf_ref.sweep import KEY, run_sweep
+    from skf_ref.study.sweep import KEY, run_sweep
 
     grid = dict(
         snr_db=[20.0],

@@ -13,8 +13,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from skf_ref import metrics, priors_from_snr, reconstruct, simulate
-from skf_ref.sweep import (
+from skf_ref import priors_from_snr, reconstruct
+from skf_ref.study import metrics
+from skf_ref.study import scenario as simulate
+from skf_ref.study.sweep import (
     KEY,
     TornLineWarning,
     check_grid,
@@ -130,7 +132,7 @@ KILL_GRID = dict(
 _KILLED_SWEEP = textwrap.dedent(
     """
     import json, sys
-    from skf_ref.sweep import run_sweep
+    from skf_ref.study.sweep import run_sweep
     grid = json.loads(sys.argv[2])
     run_sweep(grid, sys.argv[1], progress=False, n_positions=int(sys.argv[3]), runs_per_task=1)
     """

@@ -8,8 +8,8 @@ from scipy import linalg
 
 import skf_ref
 from skf_ref import InputError, reconstruct
-from skf_ref.singular import SpectralBasis
-from skf_ref.tune import tune
+from skf_ref.method.paths.singular_basis import SpectralBasis
+from skf_ref.method.tuning import tune
 
 # The likelihood-only recursion and the full paths compute the same sum of the same terms
 # in other orders (the dense path through Cholesky factors of S): rounding, ~1e-15 relative.
@@ -180,19 +180,21 @@ def test_a_fixed_snr_never_warns():
 
 def test_choose_priors_passes_the_criterion_and_warns_at_its_caller():
     L, Y = state_space_data(2, T=60)
-    theta0, q, result = skf_ref.tune.choose_priors(
+    theta0, q, result = skf_ref.method.tuning.choose_priors(
         L, Y, noise_std=0.5, pm_snr_db=10.0, ep_snr_db="auto", criterion="discrepancy"
     )
     assert result.criterion == "discrepancy" and (theta0, q) == (result.theta0, result.q)
     assert result.residual_energy == pytest.approx(Y.size, rel=DISCREPANCY_RTOL)
     with pytest.warns(UserWarning, match="pm_snr_db = -20.00 dB lies on the lower") as record:
-        skf_ref.priors_from_snr(L, 0.5, "auto", 40.0, 60, data=0.5 * np.ones_like(Y))
+        skf_ref.method.tuning.choose_priors(
+            L, 0.5 * np.ones_like(Y), noise_std=0.5, pm_snr_db="auto", ep_snr_db=40.0
+        )
     assert {w.filename for w in record} == {__file__}
 
 
 def test_landscape_is_finite_over_the_default_grid_of_the_study():
-    from skf_ref.head import make_head_model
-    from skf_ref.simulate import p20n20_scenario, simulate
+    from skf_ref.study.head import make_head_model
+    from skf_ref.study.scenario import p20n20_scenario, simulate
 
     head = make_head_model(500)
     sim = simulate(head, p20n20_scenario(), 10.0, seed=0)
@@ -208,7 +210,9 @@ def test_a_fixed_snr_and_auto_everywhere(mne_setup):
     L, Y = state_space_data(3, T=60)
     fixed = tune(L, Y, noise_std=0.5, pm_snr_db=0.0, grid=9)
     assert fixed.pm_snr_db == 0.0 and fixed.landscape.shape == (9, 5)
-    theta0, q = skf_ref.priors_from_snr(L, 0.5, 0.0, "auto", 60, data=Y)
+    theta0, q, _ = skf_ref.method.tuning.choose_priors(
+        L, Y, noise_std=0.5, pm_snr_db=0.0, ep_snr_db="auto"
+    )
     assert (theta0, q) == pytest.approx((fixed.theta0, fixed.q), rel=1e-6)
     epochs = mne_setup["make_epochs"](target=300, seed=7)
     with pytest.warns(UserWarning, match="lies on the .* bound") as record:
@@ -247,16 +251,16 @@ def test_bad_ranges_are_refused(change, match):
     kwargs = dict(noise_std=0.5) | change
     with pytest.raises(InputError, match=match):
         tune(L, Y, **kwargs)
-    with pytest.raises(InputError, match="'auto' needs the data"):
+    with pytest.raises(InputError, match="priors chosen by the data .'auto'. are skf_ref.tune's"):
         skf_ref.priors_from_snr(L, 0.5, "auto", 20.0, 10)
     with pytest.raises(InputError, match="criterion must be one of"):
-        skf_ref.tune.choose_priors(
+        skf_ref.method.tuning.choose_priors(
             L, Y, noise_std=0.5, pm_snr_db=0.0, ep_snr_db=0.0, criterion="morozov"
         )
 
 
 def test_landscape_figure_marks_the_chosen_point():
-    from skf_ref.plots import plot_landscape
+    from skf_ref.study.plots import plot_landscape
 
     L, Y = state_space_data(5, T=20)
     result = tune(L, Y, noise_std=0.5, grid=5)

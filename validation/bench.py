@@ -8,11 +8,11 @@ Each row runs one path on one size: the SKF with ``"rts-standardized"`` smoothin
 its time includes every preparation, the SVD among them), ``apply_skf`` (the MNE route at
 its defaults, exponent 0.5 without smoothing: channel picking, MNE's whitener, the spectral
 path and the source estimate, from an evoked, a forward and a covariance), ``tune``
-(PM-SNR and EP-SNR chosen by marginal likelihood, :func:`skf_ref.tune`: a 13 x 13 grid
+(PM-SNR and EP-SNR chosen by marginal likelihood, :func:`skf_ref.method.tuning`: a 13 x 13 grid
 over -20..40 dB and a bounded refinement, SVD included), or MNE-Python's sLORETA:
 ``mne-sloreta`` is ``mne.minimum_norm.apply_inverse`` on an inverse operator made
 beforehand, ``mne-sloreta+make`` also times ``make_inverse_operator`` (MNE's SVD),
-on the same sphere-model forward (``skf_ref.simulate.make_head_model``) and the same data
+on the same sphere-model forward (``skf_ref.study.scenario.make_head_model``) and the same data
 (a dipole at one grid position with a 10 Hz-like oscillation plus white noise, seeded).
 
 Time is the median wall time of up to ``--repeats`` runs (fewer when one run is slow; the
@@ -24,7 +24,7 @@ with the memory they would need. Results go to ``DIR/results.md`` and ``DIR/resu
 BLAS threads. numpy's and scipy's BLAS (OpenBLAS here) run on as many threads as they
 choose, so a time means little without them: every row records the BLAS libraries and
 their thread counts as they were while it was timed (threadpoolctl, through
-:func:`skf_ref.provenance.blas_threads`), and the markdown header names the machine, the
+:func:`skf_ref._utils.provenance.blas_threads`), and the markdown header names the machine, the
 libraries and their threads. ``--blas-threads N`` runs the whole benchmark under
 ``threadpoolctl.threadpool_limits(N, user_api="blas")``; the limit is recorded beside every
 timing.
@@ -41,8 +41,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from skf_ref.files import atomic_path
-from skf_ref.provenance import blas_threads, machine
+from skf_ref._utils.atomic_files import atomic_path
+from skf_ref._utils.provenance import blas_threads, machine
 
 SIZES = ((600, 64, 41), (1500, 64, 41), (9000, 64, 41), (9000, 64, 1000), (150000, 128, 1000))
 PATHS = ("filterpy", "dense", "spectral", "tune", "apply_skf", "mne-sloreta", "mne-sloreta+make")
@@ -65,11 +65,11 @@ def make_problem(n_columns, n_channels, n_times, seed=0):
     Returns
     -------
     dict
-        ``head`` (:class:`skf_ref.simulate.HeadModel`), ``Y`` (n_channels, n_times),
+        ``head`` (:class:`skf_ref.study.scenario.HeadModel`), ``Y`` (n_channels, n_times),
         ``noise_std``, ``theta0``, ``q``.
     """
     from skf_ref import priors_from_snr
-    from skf_ref.simulate import make_head_model
+    from skf_ref.study.scenario import make_head_model
 
     if n_channels not in MONTAGES:
         raise ValueError(f"n_channels must be one of {sorted(MONTAGES)}, got {n_channels}")
@@ -127,7 +127,7 @@ def _mne_inputs(problem):
 
 
 def _tune_runner(problem):
-    from skf_ref.tune import tune
+    from skf_ref.method.tuning import tune
 
     return lambda: tune(problem["head"].leadfield, problem["Y"], noise_std=problem["noise_std"])
 
@@ -171,7 +171,7 @@ def _runner(problem, path):
 
 def _not_runnable(path, n_columns, n_times):
     """The memory the path needs if the guard refuses it, else None."""
-    from skf_ref import memory
+    from skf_ref._utils import memory
 
     if path not in ("filterpy", "dense"):
         return None

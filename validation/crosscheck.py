@@ -6,8 +6,8 @@ Run from the repository root::
     python -m validation.crosscheck --paths filterpy
 
 Each path in :data:`PATHS` reconstructs a grid of seeded random problems, and its result is
-compared with that of the reference path :data:`REFERENCE` (``skf_ref/dense.py``, the readable
-statement of the algorithm). The grid crosses
+compared with that of the reference path :data:`REFERENCE` (``skf_ref/method/paths/dense.py``, the
+readable statement of the algorithm). The grid crosses
 
 - orientation: fixed (one column per position) and free (three, MNE's order);
 - lead field reference: none (full rank) and average (channel mean removed, rank
@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from skf_ref import priors_from_snr, reconstruct
-from skf_ref.inverse import METHODS
+from skf_ref.method.reconstruct import METHODS
 
 __all__ = [
     "TOLERANCE",

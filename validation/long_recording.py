@@ -50,7 +50,7 @@ def stream(n_sources, n_channels, n_times, folder, seed=0):
         ``seconds`` (reconstruct + write + sync), ``peak_rss_gib``, ``bytes``.
     """
     from skf_ref import priors_from_snr, reconstruct
-    from skf_ref.provenance import blas_threads
+    from skf_ref._utils.provenance import blas_threads
 
     rng = np.random.default_rng(seed)
     L = rng.standard_normal((n_channels, n_sources))
@@ -177,7 +177,7 @@ def save(row, out, table):
     markdown, without any earlier long-recording section) followed by this one."""
     import pandas as pd
 
-    from skf_ref.files import atomic_path
+    from skf_ref._utils.atomic_files import atomic_path
 
     with atomic_path(out / "long_recording.csv") as tmp:
         pd.DataFrame([row]).to_csv(tmp, index=False)

@@ -71,7 +71,7 @@ def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     mistakes = (OSError, MemoryError)
     try:
-        from ..checks import InputError
+        from .._utils.checks import InputError
 
         mistakes = (InputError, OSError, MemoryError)
         parser = build_parser()

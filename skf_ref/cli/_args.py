@@ -3,7 +3,7 @@
 import argparse
 import re
 
-from ..checks import InputError, check_int, check_real
+from .._utils.checks import InputError, check_int, check_real
 
 __all__ = [
     "Parser",

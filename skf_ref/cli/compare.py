@@ -45,8 +45,8 @@ def add_parser(subparsers):
 
 def run(args):
     """Run ``skf-ref compare``: print the report; exit status 1 when something disagrees."""
-    from ..comparison import compare
-    from ..files import atomic_path
+    from .._utils.atomic_files import atomic_path
+    from ..conformance.compare import compare
 
     result = compare(args.case, args.theirs, tolerance=args.tolerance)
     if args.json is not None:

@@ -1,10 +1,10 @@
-"""``skf-ref demo``: parses its options, calls :func:`skf_ref.demo.run_demo`, prints."""
+"""``skf-ref demo``: parses its options, calls :func:`skf_ref.study.demo.run_demo`, prints."""
 
 import re
 from pathlib import Path
 
-from ..checks import InputError
-from ..settings import RECOMMENDED_SETTING
+from .._utils.checks import InputError
+from ..method.settings import RECOMMENDED_SETTING
 from ._args import add_skf_options, db, integer
 
 __all__ = ["add_parser", "run"]
@@ -85,8 +85,8 @@ def add_parser(subparsers):
 
 
 def run(args):
-    """Run ``skf-ref demo``; returns the :class:`skf_ref.demo.Demo`."""
-    from ..demo import run_demo
+    """Run ``skf-ref demo``; returns the :class:`skf_ref.study.demo.Demo`."""
+    from ..study.demo import run_demo
 
     if args.head == "sphere" and args.mne_testing_data is not None:
         raise InputError("--mne-testing-data: not used with --head sphere; drop one")

@@ -5,8 +5,8 @@ import json
 import sys
 from pathlib import Path
 
-from ..checks import InputError
-from ..settings import RECOMMENDED_SETTING
+from .._utils.checks import InputError
+from ..method.settings import RECOMMENDED_SETTING
 from ._args import add_skf_options, positive, report_tuning
 
 __all__ = ["add_parser", "run"]
@@ -105,7 +105,7 @@ def _route(args):
 
 
 def _settings(args, route, extra):
-    from ..provenance import machine
+    from .._utils.provenance import machine
 
     keys = ("pm_snr_db", "ep_snr_db", "exponent", "smoother", "method", "pick_ori")
     files = ("forward", "evoked", "condition", "leadfield", "data", "key", "noise_cov")
@@ -123,8 +123,8 @@ def _settings(args, route, extra):
 def _mne_route(args):
     import mne
 
-    from ..apply import apply_skf
-    from ..io import read_data, read_leadfield
+    from ..io.apply import apply_skf
+    from ..io.files import read_data, read_leadfield
 
     recording = read_data(args.evoked, condition=args.condition)
     if recording.evoked is None:
@@ -158,9 +158,9 @@ def _mne_route(args):
 
 def _array_route(args):
 
-    from ..inverse import reconstruct
-    from ..io import read_data, read_leadfield
-    from ..tune import choose_priors
+    from ..io.files import read_data, read_leadfield
+    from ..method.reconstruct import reconstruct
+    from ..method.tuning import choose_priors
 
     leadfield = read_leadfield(args.leadfield, key=args.key)
     recording = read_data(args.data, key=args.key, condition=args.condition)
@@ -230,8 +230,8 @@ def run(args):
     """Run ``skf-ref reconstruct``; returns the reconstruction."""
     import numpy as np
 
-    from ..files import atomic_path
-    from ..io import write_reconstruction, write_stc
+    from .._utils.atomic_files import atomic_path
+    from ..io.files import write_reconstruction, write_stc
 
     route = _route(args)
     rec, stc, times, positions = (_mne_route if route == "mne" else _array_route)(args)
@@ -247,7 +247,7 @@ def run(args):
     with atomic_path(args.out.with_name(args.out.name + ".json")) as tmp:
         tmp.write_text(json.dumps(_settings(args, route, extra), indent=1, default=str) + "\n")
     if args.plot is not None:
-        from ..plots import plot_estimate
+        from ..study.plots import plot_estimate
 
         with atomic_path(args.plot) as tmp:
             plot_estimate(

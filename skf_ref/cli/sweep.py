@@ -4,7 +4,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..checks import InputError
+from .._utils.checks import InputError
 from ._args import db, integer, nonnegative
 
 __all__ = ["add_parser", "run"]
@@ -21,7 +21,7 @@ def _results_file(text):
 
 def add_parser(subparsers):
     """Add ``sweep`` to the ``skf-ref`` subcommands."""
-    from ..sweep import paper_grid
+    from ..study.sweep import paper_grid
 
     paper = paper_grid(seeds=10)
     sweep = subparsers.add_parser(
@@ -75,7 +75,7 @@ def run(args):
     """Run ``skf-ref sweep``; returns the results table."""
     import warnings
 
-    from ..sweep import TornLineWarning, paper_grid, run_sweep
+    from ..study.sweep import TornLineWarning, paper_grid, run_sweep
 
     if args.jobs == 0:
         raise InputError("argument --jobs: must be a positive number of workers or -1")

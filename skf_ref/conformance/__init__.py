@@ -37,8 +37,8 @@ average-referenced case: ``L_unreferenced``, of which ``L`` is each column minus
 over the channels.
 """
 
-from ._cases import CONFORMANCE_VERSION, EXTRAS, INPUTS, OUTPUTS, TOLERANCE, Case, cases
-from ._files import FORMATS, export, manifest, read_case, write_case
+from .case_files import FORMATS, export, manifest, read_case, write_case
+from .cases import CONFORMANCE_VERSION, EXTRAS, INPUTS, OUTPUTS, TOLERANCE, Case, cases
 
 __all__ = [
     "CONFORMANCE_VERSION",

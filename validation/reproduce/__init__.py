@@ -3,10 +3,10 @@
 ``python -m validation.reproduce [--quick] [--out DIR] [--jobs N] [--fresh]``
 ``[--seeds N] [--n-positions N] [--fine-step DB]``
 
-Runs two sweeps with :func:`skf_ref.sweep.run_sweep` and writes ``DIR/REPORT.md`` with the
+Runs two sweeps with :func:`skf_ref.study.sweep.run_sweep` and writes ``DIR/REPORT.md`` with the
 decision rules (stated before any number), one verdict per finding, tables and figures:
 
-- ``paper_grid.csv``: the paper's grid, :func:`skf_ref.sweep.paper_grid` (10/20/30 dB; EP,
+- ``paper_grid.csv``: the paper's grid, :func:`skf_ref.study.sweep.paper_grid` (10/20/30 dB; EP,
   PM in {0, 20} dB; exponents 0.5, 1, 1.25, 1.5; no smoothing, "rts-standardized",
   "rts-state"; seeds 0 .. n-1);
 - ``fine_grid.csv``: a finer EP x PM map, -20 .. 40 dB, for (exponent 0.5, no smoothing)

@@ -24,7 +24,7 @@ the scaled real covariance, average-referenced, for the real-noise condition) an
 average reference (MNE's projector). The SKF takes white noise as ``noise_std = sigma`` on
 the average-referenced lead field, exactly as the sweeps do, and real noise whitened
 (``eigh`` of the covariance, its null direction dropped). Every method's amplitude is the
-norm over the three orientations; the metrics are :func:`skf_ref.metrics.summarize`'s.
+norm over the three orientations; the metrics are :func:`skf_ref.study.metrics.summarize`'s.
 
 The choice seeds (:data:`recommend.CHOICE_SEEDS`) run the SKF settings only, in the realistic
 cortex + thalamus cell with white noise: the recommendation rule reads them, no table does.
@@ -41,8 +41,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from skf_ref.baselines import MINIMUM_NORM_METHODS
-from skf_ref.files import atomic_path
+from skf_ref._utils.atomic_files import atomic_path
+from skf_ref.study.baselines import MINIMUM_NORM_METHODS
 
 from .recommend import CHOICE_SEEDS
 from .settings import EXPONENTS, MONTAGE, NOISE_LEVELS, SMOOTHERS, TUNED_PRIOR
@@ -201,9 +201,9 @@ class _Timer:
 def _skf(head, sims, noise):
     """The SKF settings' amplitudes: (method, setting, data, seed) -> (amplitude, run s),
     and the preparation's seconds."""
-    from skf_ref.model import StateSpaceModel
-    from skf_ref.priors import priors_from_snr
-    from skf_ref.spectral import SpectralModel
+    from skf_ref.method.model import StateSpaceModel
+    from skf_ref.method.paths.spectral import SpectralModel
+    from skf_ref.method.priors import priors_from_snr
 
     first = next(iter(sims.values()))
     with _Timer() as prep:
@@ -230,7 +230,7 @@ def _skf(head, sims, noise):
 def _minimum_norm(head, sims, snr_db):
     from mne.minimum_norm import prepare_inverse_operator
 
-    from skf_ref.baselines import apply_minimum_norm, inverse_operator
+    from skf_ref.study.baselines import apply_minimum_norm, inverse_operator
 
     first = next(iter(sims.values()))
     with _Timer() as make:
@@ -255,7 +255,7 @@ def _per_run(head, sims):
     from mne.beamformer import apply_lcmv, make_lcmv
     from mne.inverse_sparse import mixed_norm
 
-    from skf_ref.baselines import amplitude_on_positions, mne_data
+    from skf_ref.study.baselines import amplitude_on_positions, mne_data
 
     out, prep = {}, {}
     for (data, seed), sim in sims.items():
@@ -286,7 +286,7 @@ def run_level(head_kwargs, condition, snr_db, seeds, with_baselines):
     Parameters
     ----------
     head_kwargs : dict
-        Keyword arguments of :func:`skf_ref.head.make_head` (without the montage).
+        Keyword arguments of :func:`skf_ref.study.head.make_head` (without the montage).
     condition : Condition
     snr_db : float
     seeds : list of int
@@ -300,8 +300,9 @@ def run_level(head_kwargs, condition, snr_db, seeds, with_baselines):
     """
     import warnings
 
-    from skf_ref import metrics, simulate
-    from skf_ref.head import make_head
+    from skf_ref.study import metrics
+    from skf_ref.study import scenario as simulate
+    from skf_ref.study.head import make_head
 
     head = make_head(**dict(head_kwargs, montage=condition.montage))
     scenario = simulate.p20n20_scenario()

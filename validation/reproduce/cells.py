@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from skf_ref.files import atomic_path
+from skf_ref._utils.atomic_files import atomic_path
 
 from .settings import BEST_CELL_ORDER, CONTROLS, MONTAGE, RESULTS, TUNING, VARIANTS, VERDICTS
 from .tuned import TUNED, compare_tuned, run_tuned
@@ -32,7 +32,7 @@ __all__ = [
 
 
 def head_kwargs(cell, settings, testing_data=None, cache_dir=None):
-    """Keyword arguments of :func:`skf_ref.head.make_head` for a cell (picklable)."""
+    """Keyword arguments of :func:`skf_ref.study.head.make_head` for a cell (picklable)."""
     kwargs = dict(conductor=cell.conductor, source_space=cell.source_space)
     if cell.conductor == "sphere" and cell.source_space == "volume":
         kwargs["n_positions"] = settings.n_positions
@@ -56,7 +56,7 @@ def result_files(settings):
 
 def sorted_rewrite(path):
     """Sort a results file by its key and rewrite it (atomically); return the table."""
-    from skf_ref.sweep import KEY, read_results
+    from skf_ref.study.sweep import KEY, read_results
 
     table = read_results(path)
     table = table.sort_values(list(KEY), kind="stable", ignore_index=True)
@@ -70,7 +70,7 @@ def sorted_rewrite(path):
 def _sorted_words(value):
     """The words of a ``blas`` cell in sorted order.
 
-    ``skf_ref.provenance.blas_threads`` lists the loaded BLAS libraries in an order that
+    ``skf_ref._utils.provenance.blas_threads`` lists the loaded BLAS libraries in an order that
     varies from process to process (threadpoolctl's order follows the string hash seed), so
     sweep rows computed by different workers name the same libraries in different orders.
     Sorting them keeps the results files regenerable byte for byte.
@@ -79,7 +79,7 @@ def _sorted_words(value):
 
 
 def _sweep(grids, path, head, data, n_jobs, progress):
-    from skf_ref.sweep import run_sweep
+    from skf_ref.study.sweep import run_sweep
 
     path.parent.mkdir(parents=True, exist_ok=True)
     for grid in grids:
@@ -96,14 +96,14 @@ class CellResult:
     Attributes
     ----------
     cell : Cell
-    head : skf_ref.head.HeadModel
+    head : skf_ref.study.head.HeadModel
     paper, fine : pandas.DataFrame
     controls : dict
         ``"deep"`` and ``"superficial"`` -> the control tables.
     findings, findings_v2, findings_v3 : list of Finding
     figures, diagnostics : dict
     sensitivity : Sensitivity or None
-    truth : skf_ref.simulate.Truth
+    truth : skf_ref.study.scenario.Truth
         The sources placed in this head.
     tuned : list of TunedComparison
         The priors chosen by the data beside the fixed cells (``tuned.py``).
@@ -132,7 +132,7 @@ def run_cell_sweeps(cell, settings, out, n_jobs, progress, testing_data=None, ca
     CellResult
         With the tables and the head (the verdicts are added by the caller).
     """
-    from skf_ref.head import make_head
+    from skf_ref.study.head import make_head
 
     kwargs = head_kwargs(cell, settings, testing_data, cache_dir)
     folder = Path(out) / cell.name
@@ -149,7 +149,7 @@ def run_cell_sweeps(cell, settings, out, n_jobs, progress, testing_data=None, ca
         )
         for source, name in CONTROLS.items()
     }
-    from skf_ref.simulate import p20n20_scenario
+    from skf_ref.study.scenario import p20n20_scenario
 
     tuned = run_tuned(kwargs, settings.seeds, folder / TUNED, n_jobs)
     head = make_head(**dict(kwargs, montage=MONTAGE))

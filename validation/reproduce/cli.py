@@ -14,7 +14,7 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
-from skf_ref.files import atomic_path
+from skf_ref._utils.atomic_files import atomic_path
 
 from .baselines import baseline_files, describe, run_baselines
 from .cells import best_cell, result_files, run_cell_sweeps, run_variants
@@ -294,9 +294,9 @@ def main(argv=None):
     int
         0 on success, 2 for bad arguments (one line on stderr).
     """
-    from skf_ref import simulate
-    from skf_ref.head import find_testing_data
-    from skf_ref.sweep import read_results
+    from skf_ref.study import scenario as simulate
+    from skf_ref.study.head import find_testing_data
+    from skf_ref.study.sweep import read_results
 
     start = time.perf_counter()
     try:

@@ -1,6 +1,6 @@
 """The report's figures: prior grids, the exponent comparison, seed averages, fine maps.
 
-Matplotlib and :mod:`skf_ref.plots` are imported inside the functions, so importing this
+Matplotlib and :mod:`skf_ref.study.plots` are imported inside the functions, so importing this
 module (or the rules) does not need a plotting backend.
 """
 
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from skf_ref.files import atomic_path
+from skf_ref._utils.atomic_files import atomic_path
 
 from .settings import (
     CORNERS,
@@ -43,7 +43,7 @@ def _save(fig, path):
 
 
 def _prior_grid_figures(out, runs):
-    from skf_ref import plots
+    from skf_ref.study import plots
 
     names = {}
     for snr in NOISE_LEVELS:
@@ -64,7 +64,7 @@ def _prior_grid_figures(out, runs):
 
 
 def _exponent_figure(out, runs):
-    from skf_ref import plots
+    from skf_ref.study import plots
 
     ep, pm = TUNED_PRIOR
     amps = {e: runs.amplitudes(30.0, ep, pm, e, SMOOTHED[1], [0])[0] for e in RANKED_EXPONENTS}
@@ -183,7 +183,7 @@ def _average_figures(out, runs, seeds):
     Without smoothing: exponent 0.5 at the noise level's best tuning cell (F4's setting);
     smoothed: exponent 1.25, "rts-standardized", EP 20, PM 0 (F6's setting).
     """
-    from skf_ref import plots
+    from skf_ref.study import plots
 
     names = {}
     for snr in (10.0, 30.0):
@@ -300,9 +300,9 @@ def plot_source_placement(heads, truth_by_head, title=None):
     Parameters
     ----------
     heads : dict
-        Label -> skf_ref.head.HeadModel.
+        Label -> skf_ref.study.head.HeadModel.
     truth_by_head : dict
-        Label -> skf_ref.simulate.Truth placed in that head.
+        Label -> skf_ref.study.scenario.Truth placed in that head.
     title : str, optional
 
     Returns

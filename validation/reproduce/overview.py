@@ -90,7 +90,7 @@ def _discussion_section(data):
 
 
 def _header(data):
-    from skf_ref.simulate import DEEP_MNI_MM, SUPERFICIAL_MNI_MM
+    from skf_ref.study.scenario import DEEP_MNI_MM, SUPERFICIAL_MNI_MM
 
     settings, wanted = data.settings, data.manifest
     versions = ", ".join(f"{k} {v}" for k, v in wanted["versions"].items())

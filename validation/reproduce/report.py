@@ -13,7 +13,7 @@ from itertools import product
 import numpy as np
 import pandas as pd
 
-from skf_ref.regions import DYNAMIC_RANGE_DB as DETECTION_DB
+from skf_ref.study.regions import DYNAMIC_RANGE_DB as DETECTION_DB
 
 from .discussion import _discussion
 from .runs import electrode_floor
@@ -64,7 +64,7 @@ cell** is the unique lowest mean, and a tie for the lowest is no unique best. Wh
 must be picked (F4, the average maps) ties go to the first of (EP, PM) = (0, 0), (0, 20),
 (20, 0), (20, 20). "Majority" means more than half of the seeds. Detection and the region
 levels use the paper's {DETECTION_DB:g} dB dynamic range and 15 mm regions
-(`skf_ref.metrics`).
+(`skf_ref.study.metrics`).
 
 **Tuning setting** (F1-F4), the paper's parameter-tuning stage (left columns of its
 figures): the SKF without smoothing, standardization exponent {TUNING[0]:g}, on the 2 × 2 grid
@@ -161,7 +161,7 @@ def _fine_best_text(fine, settings):
 
 def head_text(head):
     """The conductor and the source space of a head, as two list items (Markdown)."""
-    from skf_ref.head import LABELS, SHELL_DEPTH_MM, THALAMUS_RADIUS_MM
+    from skf_ref.study.head import LABELS, SHELL_DEPTH_MM, THALAMUS_RADIUS_MM
 
     if head.conductor_kind == "sphere":
         layers = ", ".join(
@@ -211,7 +211,7 @@ def head_text(head):
 
 def sources_text(head, truth):
     """Where the two sources are, in MNI and in this head (one list item)."""
-    from skf_ref.simulate import DEEP_MNI_MM, SUPERFICIAL_MNI_MM
+    from skf_ref.study.scenario import DEEP_MNI_MM, SUPERFICIAL_MNI_MM
 
     def mm(values):
         return "(" + ", ".join(f"{v:.1f}" for v in values) + ")"
@@ -419,7 +419,7 @@ class ReportData:
     Attributes
     ----------
     settings : Settings
-    head : skf_ref.simulate.HeadModel
+    head : skf_ref.study.scenario.HeadModel
     manifest : dict
         From :func:`manifest`.
     paper, fine : pandas.DataFrame
@@ -435,7 +435,7 @@ class ReportData:
         The v2 verdicts (:mod:`validation.reproduce.rules_v2`).
     findings_v3 : list of Finding
         The v3 verdicts (:mod:`validation.reproduce.rules_v3`).
-    truth : skf_ref.simulate.Truth
+    truth : skf_ref.study.scenario.Truth
         The sources placed in this head.
     title : str
         The cell.

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
-from skf_ref.regions import DYNAMIC_RANGE_DB as DETECTION_DB
+from skf_ref.study.regions import DYNAMIC_RANGE_DB as DETECTION_DB
 
 from .settings import (
     EXPONENTS,

@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from skf_ref.regions import DYNAMIC_RANGE_DB as DETECTION_DB
+from skf_ref.study.regions import DYNAMIC_RANGE_DB as DETECTION_DB
 
 from .rules import _finding, _yes, verdict
 from .rules_v2 import RULES_V2, deep_excess, rule_v2_f1, rule_v2_f2, rule_v2_f3, rule_v2_f5

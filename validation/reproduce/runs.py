@@ -1,7 +1,7 @@
 """The reconstructions behind the figures, checked against the sweep, and their diagnostics.
 
 The figures show single runs and seed averages; :class:`CheckedRuns` recomputes them the
-way :func:`skf_ref.sweep.run_group` does and checks each against its sweep row, so a figure
+way :func:`skf_ref.study.sweep.run_group` does and checks each against its sweep row, so a figure
 never shows a run the tables do not summarize. :func:`diagnostics` describes the same runs
 post hoc (no decision rule uses it).
 """
@@ -22,27 +22,27 @@ __all__ = ["CheckedRuns", "Diagnostic", "diagnostics", "electrode_floor"]
 class CheckedRuns:
     """Reconstructions for the figures, one prepared spectral model per noise level and priors.
 
-    Mirrors :func:`skf_ref.sweep.run_group`, and checks every run against its sweep row
+    Mirrors :func:`skf_ref.study.sweep.run_group`, and checks every run against its sweep row
     (same peak localization errors), so the figures show the runs the tables summarize.
 
     Parameters
     ----------
-    head : skf_ref.simulate.HeadModel
+    head : skf_ref.study.scenario.HeadModel
     table : pandas.DataFrame
         The paper-grid sweep rows every run is checked against.
     """
 
     def __init__(self, head, table):
-        from skf_ref import simulate
+        from skf_ref.study import scenario as simulate
 
         self.head, self.table = head, table
         self.scenario = simulate.p20n20_scenario()
         self.models, self.sims, self.truth = {}, {}, None
 
     def _model(self, snr, ep, pm, sim):
-        from skf_ref.model import StateSpaceModel
-        from skf_ref.priors import priors_from_snr
-        from skf_ref.spectral import SpectralModel
+        from skf_ref.method.model import StateSpaceModel
+        from skf_ref.method.paths.spectral import SpectralModel
+        from skf_ref.method.priors import priors_from_snr
 
         if (snr, ep, pm) not in self.models:
             L, T = self.head.leadfield, sim.Y.shape[1]
@@ -52,7 +52,7 @@ class CheckedRuns:
         return self.models[snr, ep, pm]
 
     def _simulation(self, snr, seed):
-        from skf_ref import simulate
+        from skf_ref.study import scenario as simulate
 
         if (snr, seed) not in self.sims:
             self.sims[snr, seed] = simulate.simulate(self.head, self.scenario, snr, seed)
@@ -61,7 +61,7 @@ class CheckedRuns:
 
     def _check(self, rec, snr, ep, pm, exponent, smoother, seed):
         """Raise if a run's peak errors differ from its sweep row (stale results)."""
-        from skf_ref import metrics
+        from skf_ref.study import metrics
 
         summary = metrics.summarize(rec, self.head, self.truth)
         row = _select(self.table, snr, ep, pm, exponent, smoother)
@@ -109,7 +109,7 @@ def electrode_floor(head):
 
     Parameters
     ----------
-    head : skf_ref.simulate.HeadModel
+    head : skf_ref.study.scenario.HeadModel
 
     Returns
     -------

@@ -30,11 +30,11 @@ def crop_head(head):
 
     Parameters
     ----------
-    head : skf_ref.simulate.HeadModel
+    head : skf_ref.study.scenario.HeadModel
 
     Returns
     -------
-    skf_ref.simulate.HeadModel
+    skf_ref.study.scenario.HeadModel
         Same channels, sphere and montage; ``positions`` shape (n_kept, 3) and
         ``leadfield`` shape (n_channels, 3 * n_kept), the three columns (x, y, z) of each
         kept position in the original order. ``src`` and ``fwd`` describe the full grid
@@ -84,7 +84,7 @@ def run_sensitivity(head, seeds, out, n_jobs=1):
 
     Parameters
     ----------
-    head : skf_ref.simulate.HeadModel
+    head : skf_ref.study.scenario.HeadModel
         The primary head model.
     seeds : int
         Seeds 0 .. seeds - 1, as in the primary analysis.
@@ -98,8 +98,8 @@ def run_sensitivity(head, seeds, out, n_jobs=1):
     """
     from joblib import Parallel, delayed
 
-    from skf_ref.files import atomic_path
-    from skf_ref.sweep import KEY, run_on_head
+    from skf_ref._utils.atomic_files import atomic_path
+    from skf_ref.study.sweep import KEY, run_on_head
 
     cropped = crop_head(head)
     levels = Parallel(n_jobs=n_jobs)(

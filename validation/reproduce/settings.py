@@ -12,7 +12,7 @@ import platform
 from dataclasses import dataclass
 from pathlib import Path
 
-from skf_ref.provenance import blas_threads, package_versions
+from skf_ref._utils.provenance import blas_threads, package_versions
 
 __all__ = [
     "BEST_CELL_ORDER",
@@ -61,10 +61,10 @@ RANKED_EXPONENTS = (1.0, 1.25, 1.5)
 #: Smoother labels of the paper grid, as in the sweep table ("none": no smoothing).
 SMOOTHERS = ("none", "rts-standardized", "rts-state")
 FINE_RANGE = (-20.0, 40.0)
-#: Values per SNR of the coarse grid :func:`skf_ref.tune` searches for the tuned priors
+#: Values per SNR of the coarse grid :func:`skf_ref.method.tuning` searches for the tuned priors
 #: (over FINE_RANGE, the fine map's span).
 TUNE_GRID = 13
-#: The criteria of :func:`skf_ref.tune` the tuned priors are chosen by, each on its own.
+#: The criteria of :func:`skf_ref.method.tuning` the tuned priors are chosen by, each on its own.
 TUNE_CRITERIA = ("likelihood", "discrepancy")
 #: Mean scores closer than this (mm) are tied: peak errors are grid distances, so exact ties
 #: between cells are common; the tolerance only absorbs rounding of the means.
@@ -181,8 +181,8 @@ class Settings:
         return [corners, dict(tuned, smoother=[None, SMOOTHED[1]])]
 
     def paper_grid(self):
-        """The paper's grid with this run's seeds (:func:`skf_ref.sweep.paper_grid`)."""
-        from skf_ref.sweep import paper_grid
+        """The paper's grid with this run's seeds (:func:`skf_ref.study.sweep.paper_grid`)."""
+        from skf_ref.study.sweep import paper_grid
 
         return paper_grid(seeds=self.seeds)
 
@@ -246,7 +246,7 @@ def _versions():
 
 
 def _dataset_digest(testing_data):
-    from skf_ref.head import SENSOR_FILES, TESTING_FILES, input_digest
+    from skf_ref.study.head import SENSOR_FILES, TESTING_FILES, input_digest
 
     files = {name: Path(testing_data) / rel for name, rel in TESTING_FILES.items()}
     files.update({name: Path(testing_data) / rel for name, rel in SENSOR_FILES.items()})

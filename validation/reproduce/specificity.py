@@ -1,7 +1,7 @@
 """Specificity of every method: ROC areas, detection rates, error distributions, figures.
 
 A source's score in a run is its region's maximum at its peak time re. the global maximum
-(dB; :func:`skf_ref.regions.region_db`), and it "is detected" at -6 dB, the report's
+(dB; :func:`skf_ref.study.regions.region_db`), and it "is detected" at -6 dB, the report's
 threshold. The deep score is compared between the data with both sources (present) and
 with the superficial source only (absent, same noise draws); the superficial score between
 both sources and the deep source only. Errors are the peak localization errors with both
@@ -16,8 +16,8 @@ import json
 import numpy as np
 import pandas as pd
 
-from skf_ref.files import atomic_path
-from skf_ref.regions import DYNAMIC_RANGE_DB
+from skf_ref._utils.atomic_files import atomic_path
+from skf_ref.study.regions import DYNAMIC_RANGE_DB
 
 from .baselines import BASELINES, LCMV_REG, MXNE_ALPHA, choice_seeds, conditions
 from .recommend import RULE_TEXT, auc, recommend

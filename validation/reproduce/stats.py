@@ -1,6 +1,6 @@
 """Statistics over seeds of a sweep table, and the text they are written in.
 
-Pure functions of a sweep table (the rows of :func:`skf_ref.sweep.run_sweep`, with
+Pure functions of a sweep table (the rows of :func:`skf_ref.study.sweep.run_sweep`, with
 ``smoother`` as a label, ``"none"`` for no smoothing); the decision rules, the figures and
 the report all read the table through them.
 """
@@ -119,7 +119,7 @@ def cell_stats(table, snr, ep, pm, exponent, smoother, column="score"):
     Parameters
     ----------
     table : pandas.DataFrame
-        Sweep rows (columns of :func:`skf_ref.metrics.summarize` and the grid axes;
+        Sweep rows (columns of :func:`skf_ref.study.metrics.summarize` and the grid axes;
         ``smoother`` as a label, ``"none"`` for no smoothing).
     snr, ep, pm, exponent : float
     smoother : str

@@ -1,13 +1,13 @@
 """Priors chosen by the data: two criteria against the ground truth's best cell and the paper's.
 
-For every seed and noise level, :func:`skf_ref.tune` picks EP-SNR and PM-SNR from that
+For every seed and noise level, :func:`skf_ref.method.tuning` picks EP-SNR and PM-SNR from that
 seed's data alone (the search range of the fine map, -20 .. 40 dB, its default), by each of
 its criteria: the marginal likelihood, and the discrepancy principle (EP-SNR where the
 whitened residual of the filtered means equals its expected value ``n_channels * n_times``,
 PM-SNR by the likelihood along that curve; docs/model.md §4). The SKF runs at those priors
 in the tuning setting and in the smoothed one (neither criterion depends on the exponent or
 the smoother, so one choice serves both). The rows are computed by
-:func:`skf_ref.sweep.run_on_head`, the code of every other row, so their metrics mean what
+:func:`skf_ref.study.sweep.run_on_head`, the code of every other row, so their metrics mean what
 the sweep's mean. ``tune`` warns when a searched SNR ends on a bound of its range; here the
 warnings are caught, counted and checked against the choices that lie on a bound.
 
@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from skf_ref.files import atomic_path
+from skf_ref._utils.atomic_files import atomic_path
 
 from .report import _markdown_table
 from .settings import (
@@ -129,7 +129,7 @@ def paper_cells(snr, stage):
 
 def _choose(L, sim, criterion):
     """``tune`` by one criterion, its bound warnings caught and counted, not printed."""
-    from skf_ref.tune import tune
+    from skf_ref.method.tuning import tune
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)  # count repeats from the same line
@@ -158,9 +158,9 @@ def _choose(L, sim, criterion):
 
 def _tuned_group(head_kwargs, snr, seeds):
     """Tune every seed at one noise level by each criterion and run both stages there."""
-    from skf_ref import simulate
-    from skf_ref.head import make_head
-    from skf_ref.sweep import run_on_head
+    from skf_ref.study import scenario as simulate
+    from skf_ref.study.head import make_head
+    from skf_ref.study.sweep import run_on_head
 
     head = make_head(**dict(head_kwargs, montage=MONTAGE))
     scenario = simulate.p20n20_scenario()
@@ -205,7 +205,7 @@ def run_tuned(head_kwargs, seeds, path, n_jobs=1):
     Parameters
     ----------
     head_kwargs : dict
-        Keyword arguments of :func:`skf_ref.head.make_head` (picklable).
+        Keyword arguments of :func:`skf_ref.study.head.make_head` (picklable).
     seeds : int
         Seeds 0 .. seeds - 1 at every noise level.
     path : Path
@@ -572,7 +572,7 @@ def _intro(totals):
         for c in TUNE_CRITERIA
     )
     return (
-        "For each seed and noise level, `skf_ref.tune` chose EP-SNR and PM-SNR from that "
+        "For each seed and noise level, `skf_ref.method.tuning` chose EP-SNR and PM-SNR from that "
         f"seed's data alone ({TUNE_GRID} x {TUNE_GRID} grid over {lower:g} .. {upper:g} dB, "
         "the fine map's span), knowing the noise level as every other run does, and nothing "
         "of the sources, by each of two criteria (docs/model.md §4): the *marginal "
@@ -598,7 +598,7 @@ def _intro(totals):
 
 
 def _bounds_text(totals):
-    from skf_ref.tune import BOUND_TOL_DB
+    from skf_ref.method.tuning import BOUND_TOL_DB
 
     lower, upper = FINE_RANGE
     counts = "; ".join(

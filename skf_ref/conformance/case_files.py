@@ -1,0 +1,217 @@
+"""Case files (``.npz``, MATLAB v5 ``.mat``) and the manifest, the same bytes every time."""
+
+import io
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from .._utils.atomic_files import atomic_path
+from .._utils.checks import InputError, check_array, check_choice
+from ..method.result import readonly
+from ..version import __version__
+from .cases import CONFORMANCE_VERSION, EXTRAS, INPUTS, OUTPUTS, TOLERANCE, Case, as_value, cases
+
+__all__ = ["FORMATS", "export", "manifest", "read_case", "write_case"]
+
+FORMATS = ("npz", "mat")
+_ABOUT = ("case", "description", "exercises", "tolerance")
+_ZIP_DATE = (1980, 1, 1, 0, 0, 0)  # the earliest date a zip file can hold
+# the 116 bytes of text that open a MATLAB v5 file; scipy writes the time of writing there
+_MAT_HEADER = b"MATLAB 5.0 MAT-file, skf_ref conformance case".ljust(116)
+
+
+def _write_npz(path, variables):
+    """An uncompressed ``.npz`` with fixed zip dates: the same bytes for the same arrays."""
+    with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED) as archive:
+        for name, value in variables.items():
+            member = zipfile.ZipInfo(f"{name}.npy", date_time=_ZIP_DATE)
+            member.external_attr = 0o644 << 16
+            with archive.open(member, "w") as stream:
+                np.lib.format.write_array(stream, np.asarray(value), allow_pickle=False)
+
+
+def _write_mat(path, variables):
+    """A MATLAB v5 ``.mat``, its header text naming the set instead of the time of writing."""
+    from scipy.io import savemat
+
+    buffer = io.BytesIO()
+    savemat(buffer, variables, format="5", oned_as="column", do_compression=False)
+    data = bytearray(buffer.getvalue())
+    data[: len(_MAT_HEADER)] = _MAT_HEADER
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(bytes(data))
+
+
+def write_case(case, path):
+    """Write one case to ``.npz`` or MATLAB v5 ``.mat``, the same bytes every time.
+
+    Parameters
+    ----------
+    case : Case
+    path : path-like
+        Ends in ``.npz`` or ``.mat``.
+
+    Returns
+    -------
+    Path
+    """
+    path = Path(path)
+    if path.suffix not in (".npz", ".mat"):
+        raise InputError(f"a case is written to .npz or .mat, got {str(path)!r}")
+    (_write_npz if path.suffix == ".npz" else _write_mat)(path, case.variables())
+    return path
+
+
+def _text(variables, name, path):
+    value = np.asarray(variables[name])
+    if value.dtype.kind != "U" or value.ndim != 0:
+        raise InputError(f"{path}: {name} must be text, got {value.dtype} of shape {value.shape}")
+    return str(value)
+
+
+def _scalar_or_square(variables, name, path, n):
+    value = variables[name]
+    if np.ndim(value) == 0:
+        return float(check_array(f"{path}: {name}", value, ()))
+    return readonly(check_array(f"{path}: {name}", value, (n, n)))
+
+
+def read_case(path):
+    """Read a case written by :func:`write_case` (or :func:`export`).
+
+    Parameters
+    ----------
+    path : path-like
+        A case's ``.npz`` or ``.mat`` file.
+
+    Returns
+    -------
+    Case
+
+    Raises
+    ------
+    skf_ref.InputError
+        If the file is not a conformance case: names the missing variable or the shape.
+    """
+    from ..io.files import read_variables
+
+    variables = read_variables(path)
+    missing = [name for name in (*_ABOUT, *INPUTS, *OUTPUTS) if name not in variables]
+    if missing:
+        raise InputError(f"{path}: not a conformance case: no variable {missing[0]!r}")
+    L = readonly(check_array(f"{path}: L", variables["L"], ("n_channels", "n_sources")))
+    Y = readonly(check_array(f"{path}: Y", variables["Y"], (L.shape[0], "n_times")))
+    (m, n), T = L.shape, Y.shape[1]
+    inputs = {"L": L, "Y": Y, "noise_cov": _scalar_or_square(variables, "noise_cov", path, m)}
+    for name in ("theta0", "q", "transition"):
+        inputs[name] = _scalar_or_square(variables, name, path, n)
+    inputs["exponent"] = float(check_array(f"{path}: exponent", variables["exponent"], ()))
+    smoother = _text(variables, "smoother", path)
+    inputs["smoother"] = None if smoother == "none" else smoother
+    expected = {
+        name: readonly(check_array(f"{path}: {name}", variables[name], (n, T)))
+        for name in OUTPUTS
+        if name != "log_likelihood"
+    }
+    log_likelihood = variables["log_likelihood"]
+    expected["log_likelihood"] = float(check_array(f"{path}: log_likelihood", log_likelihood, ()))
+    extras = {
+        name: _text(variables, name, path) if name == "convention" else as_value(variables[name])
+        for name in EXTRAS
+        if name in variables
+    }
+    return Case(
+        name=_text(variables, "case", path),
+        description=_text(variables, "description", path),
+        exercises=tuple(_text(variables, "exercises", path).split("; ")),
+        inputs=inputs,
+        expected=expected,
+        extras=extras,
+        tolerance=float(check_array(f"{path}: tolerance", variables["tolerance"], ())),
+    )
+
+
+def manifest(formats=FORMATS):
+    """What :func:`export` writes as ``manifest.json``.
+
+    Parameters
+    ----------
+    formats : sequence of {"npz", "mat"}
+
+    Returns
+    -------
+    dict
+        The set's version, the package's, the tolerance, the variables and their layout
+        and, for each case, its files, what it exercises, what more it holds and its sizes.
+    """
+    return {
+        "conformance_version": CONFORMANCE_VERSION,
+        "skf_ref_version": __version__,
+        "tolerance": TOLERANCE,
+        "tolerance_means": "largest |theirs - expected| over largest |expected|, per output",
+        "layout": {
+            "L": "(n_channels, n_sources)",
+            "Y": "(n_channels, n_times); column t is y_t",
+            "noise_cov, theta0, q, transition": "a scalar c means c times the identity",
+            "smoother": "text: none, rts-standardized or rts-state",
+            "z, z_filtered, x, x_filtered, weights": "(n_sources, n_times)",
+            "log_likelihood": "a scalar",
+        },
+        "inputs": list(INPUTS),
+        "outputs": list(OUTPUTS),
+        "documentation": "docs/conformance.md of the skf_ref repository",
+        "cases": [
+            {
+                "name": case.name,
+                "files": [f"{case.name}.{fmt}" for fmt in formats],
+                "exercises": list(case.exercises),
+                "description": case.description,
+                "also_holds": list(case.extras),
+                "n_channels": case.inputs["L"].shape[0],
+                "n_sources": case.shape[0],
+                "n_times": case.shape[1],
+            }
+            for case in cases()
+        ],
+    }
+
+
+def export(directory, formats=FORMATS):
+    """Write every case in each format, and ``manifest.json``, to ``directory``.
+
+    The files are the same, byte for byte, every time: no dates inside.
+
+    Parameters
+    ----------
+    directory : path-like
+        Created if missing.
+    formats : sequence of {"npz", "mat"}
+
+    Returns
+    -------
+    list of Path
+        The files written, the manifest last.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> written = export(tempfile.mkdtemp(), formats=["mat"])
+    >>> [path.name for path in written][:2], written[-1].name
+    (['original_skf.mat', 'free_orientation.mat'], 'manifest.json')
+    """
+    for fmt in formats:
+        check_choice("format", fmt, FORMATS)
+    formats = [fmt for fmt in FORMATS if fmt in formats]  # the same files in any order given
+    if not formats:
+        raise InputError(f"formats must name at least one of {list(FORMATS)}, got none")
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    written = [
+        write_case(case, directory / f"{case.name}.{fmt}") for case in cases() for fmt in formats
+    ]
+    path = directory / "manifest.json"
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(manifest(formats), indent=1) + "\n", encoding="utf-8")
+    return [*written, path]

@@ -1,0 +1,216 @@
+"""Known ways to get the SKF subtly wrong, each computed: what a mistaken SKF would output.
+
+:func:`skf_ref.compare` runs every suspect that applies to a conformance case and names those that
+reproduce an implementation's numbers to the tolerance. Each suspect is the reference computation
+with one mistake, built from the pieces of :mod:`skf_ref.method.paths.dense` and
+:mod:`skf_ref.method.standardization`, and cites the equation it gets wrong (docs/model.md states
+them all). A suspect returns the outputs a :class:`~skf_ref.Reconstruction` has (``z``,
+``z_filtered``, ``x``, ``x_filtered``, ``weights`` as (n_sources, n_times) arrays,
+``log_likelihood``), or None when the mistake cannot happen in that case (no smoother to swap, no
+lead field before its reference).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..method.model import StateSpaceModel
+from ..method.paths import dense
+from ..method.priors import CONVENTIONS, priors_from_snr
+from ..method.result import Reconstruction
+from ..method.standardization import inverse_sqrt, raw_weights, standardize
+
+__all__ = ["SUSPECTS", "Suspect"]
+
+_ARRAYS = ("z", "z_filtered", "x", "x_filtered", "weights")
+
+
+@dataclass(frozen=True)
+class Suspect:
+    """A known mistake: its name, what it is, and the outputs it produces on a case.
+
+    Attributes
+    ----------
+    name : str
+    description : str
+        The mistake, with the equation it gets wrong.
+    compute : callable
+        ``compute(case)`` -> dict of outputs, or None when the mistake does not apply.
+    """
+
+    name: str
+    description: str
+    compute: object
+
+
+def _model(case, **changes):
+    """The case's model as matrices: ``L, Y, R, A, Q, P0`` (with ``changes`` applied)."""
+    p = {**case.inputs, **changes}
+    noise_cov = p["noise_cov"]
+    R = noise_cov * np.eye(p["L"].shape[0]) if np.ndim(noise_cov) == 0 else noise_cov
+    model = StateSpaceModel(p["L"], R, p["transition"], p["q"], p["theta0"])
+    return model, p["Y"]
+
+
+def _matrices(model):
+    return model.L, model.R, *(model.matrix(name) for name in ("transition", "q", "theta0"))
+
+
+def _outputs(filtered, model, case, smoother=None):
+    """Smooth (the case's smoother unless another is given) and package a filter's output."""
+    smoother = smoother or case.inputs["smoother"]
+    A = model.matrix("transition")
+    rec = Reconstruction.from_filter(
+        filtered,
+        smoother,
+        lambda sequence: dense.rts(sequence, filtered["P_filt"], filtered["P_pred"], A),
+        model=model,
+        exponent=case.inputs["exponent"],
+        method="suspect",
+    )
+    return {**{name: getattr(rec, name) for name in _ARRAYS}, "log_likelihood": rec.log_likelihood}
+
+
+def _filtered(case, **changes):
+    """The reference forward pass (``dense.kalman_filter``) with ``changes`` to the inputs."""
+    model, Y = _model(case, **changes)
+    L, R, A, Q, P0 = _matrices(model)
+    return dense.kalman_filter(L, Y, R, A, Q, P0, case.inputs["exponent"]), model
+
+
+def _restandardized(f, w, whitening, exponent):
+    """``f`` with ``z_t = Diag(w_t ** -alpha) whitening_t x_{t|t}`` (§2.2 eqs. (6)-(7))."""
+    weights, z = standardize(w, np.einsum("tij,tj->ti", whitening, f["x_filt"]), exponent)
+    return {**f, "w": w, "P_pred_inv_sqrt": whitening, "weights": weights, "z": z}
+
+
+def _posterior_weights(f):
+    """``w_t`` with ``P_{t|t}`` in place of ``P_{t|t-1}`` in §2.2 eq. (7).
+
+    ``K_t S_t K_t^T = P_{t|t-1} - P_{t|t}`` (§2.2 eq. (5)), so
+    ``w_t = diag(P_{t|t}^{-1/2} (P_{t|t-1} - P_{t|t}) P_{t|t}^{-1/2})``.
+    """
+    whitening = np.array([inverse_sqrt(P) for P in f["P_filt"]])
+    gain = f["P_pred"] - f["P_filt"]
+    return np.einsum("tij,tjk,tik->ti", whitening, gain, whitening), whitening
+
+
+def transposed(case):
+    """The outputs as (n_times, n_sources): time-major, as filters compute them inside."""
+    return {
+        name: np.transpose(value) for name, value in case.expected.items() if name in _ARRAYS
+    } | {"log_likelihood": case.expected["log_likelihood"]}
+
+
+def posterior_in_weights(case):
+    """§2.2 eq. (7) with ``P_{t|t}`` for ``P_{t|t-1}``: the weights from the updated covariance."""
+    f, model = _filtered(case)
+    w, _ = _posterior_weights(f)
+    f = _restandardized(f, w, f["P_pred_inv_sqrt"], case.inputs["exponent"])
+    return _outputs(f, model, case)
+
+
+def posterior_in_whitening(case):
+    """§2.2 eq. (6) with ``P_{t|t}^{-1/2} x_{t|t}``: whitened by the updated covariance."""
+    f, model = _filtered(case)
+    _, whitening = _posterior_weights(f)
+    f = _restandardized(f, f["w"], whitening, case.inputs["exponent"])
+    return _outputs(f, model, case)
+
+
+def posterior_in_both(case):
+    """§2.2 eqs. (6) and (7) with ``P_{t|t}`` for ``P_{t|t-1}`` in weights and whitening."""
+    f, model = _filtered(case)
+    w, whitening = _posterior_weights(f)
+    f = _restandardized(f, w, whitening, case.inputs["exponent"])
+    return _outputs(f, model, case)
+
+
+def exponent_on_square_root(case):
+    """§2.2 eq. (7) as ``(w_t ** 1/2) ** -alpha``: the exponent on the square root of ``w_t``."""
+    f, model = _filtered(case)
+    f = _restandardized(f, np.sqrt(f["w"]), f["P_pred_inv_sqrt"], case.inputs["exponent"])
+    return _outputs(f, model, case)
+
+
+def other_smoother(case):
+    """§2.3 eq. (4) over the state ``x`` instead of ``z``, or over ``z`` instead of ``x``."""
+    smoother = case.inputs["smoother"]
+    if smoother is None:
+        return None
+    f, model = _filtered(case)
+    swapped = {"rts-standardized": "rts-state", "rts-state": "rts-standardized"}[smoother]
+    return _outputs(f, model, case, swapped)
+
+
+def other_convention(case):
+    """The priors of §3.1 eqs. (8)-(10) with the other amplitude (docs/model.md §4)."""
+    convention = case.extras.get("convention")
+    if convention is None:
+        return None
+    other = [name for name in CONVENTIONS if name != convention][0]
+    e = case.extras
+    theta0, q = priors_from_snr(
+        case.inputs["L"], e["noise_std"], e["pm_snr_db"], e["ep_snr_db"], case.shape[1], other
+    )
+    f, model = _filtered(case, theta0=theta0, q=q)
+    return _outputs(f, model, case)
+
+
+def no_first_prediction(case):
+    """§2.2 eq. (4) skipped at ``t = 1``: update, then predict, so ``P_{1|0} = P_0``."""
+    model, Y = _model(case)
+    L, R, A, Q, P0 = _matrices(model)
+    T, n = Y.shape[1], L.shape[1]
+    f = {key: np.empty((T, n)) for key in ("x_filt", "x_pred", "z", "w", "weights")}
+    for key in ("P_filt", "P_pred", "P_pred_inv_sqrt"):
+        f[key] = np.empty((T, n, n))
+    f["log_likelihood"] = 0.0
+    x_pred, P_pred = np.zeros(n), P0  # the mistake: the first update takes P_0 as P_{1|0}
+    for t in range(T):
+        x, P, K, S, log_likelihood = dense.update(x_pred, P_pred, Y[:, t], L, R)
+        P_pred_inv_sqrt = inverse_sqrt(P_pred)
+        w = raw_weights(P_pred_inv_sqrt, K, S)
+        weights, z = standardize(w, P_pred_inv_sqrt @ x, case.inputs["exponent"])
+        f["log_likelihood"] += log_likelihood
+        step = dict(x_filt=x, x_pred=x_pred, z=z, w=w, weights=weights, P_filt=P)
+        step |= dict(P_pred=P_pred, P_pred_inv_sqrt=P_pred_inv_sqrt)
+        for key, value in step.items():
+            f[key][t] = value
+        x_pred, P_pred = dense.predict(x, P, A, Q)
+    return _outputs(f, model, case)
+
+
+def extra_first_prediction(case):
+    """§2.2 eq. (4) applied twice before ``t = 1``: ``P_{1|0} = A (A P_0 A^T + Q) A^T + Q``."""
+    model, _ = _model(case)
+    _, _, A, Q, P0 = _matrices(model)
+    f, model = _filtered(case, theta0=A @ P0 @ A.T + Q)
+    return _outputs(f, model, case)
+
+
+def missing_average_reference(case):
+    """``L`` without the average reference of the data (docs/model.md §1, "Reference")."""
+    L = case.extras.get("L_unreferenced")
+    if L is None:
+        return None
+    f, model = _filtered(case, L=L)
+    return _outputs(f, model, case)
+
+
+#: Every known mistake, in the order the report lists them.
+SUSPECTS = tuple(
+    Suspect(function.__name__, function.__doc__, function)
+    for function in (
+        transposed,
+        posterior_in_weights,
+        posterior_in_whitening,
+        posterior_in_both,
+        exponent_on_square_root,
+        other_smoother,
+        other_convention,
+        no_first_prediction,
+        extra_first_prediction,
+        missing_average_reference,
+    )
+)

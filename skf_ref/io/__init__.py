@@ -1,0 +1,43 @@
+"""MNE-Python objects and files in, source estimates and files out.
+
+- :mod:`.apply`: :func:`apply_skf` on an ``mne.Evoked`` with an ``mne.Forward`` and a
+  noise covariance (channels, reference and whitening done as MNE does);
+- :mod:`.stc`: a reconstruction as an MNE source estimate;
+- :mod:`.files`: lead fields and data from ``.npy``, ``.npz``, ``.mat``, ``.csv`` and MNE's
+  ``.fif``; reconstructions written to ``.npz``, ``.mat``, ``.stc``/``.h5``;
+- :mod:`.zarr_dask`: outputs larger than memory, streamed to zarr or computed on Dask.
+
+MNE-Python, zarr and Dask are optional (the extras ``mne``, ``zarr``, ``dask``): they load
+when a function needs them. The names below load on first use.
+"""
+
+import importlib
+
+_HOMES = {
+    "LeadField": "files",
+    "Recording": "files",
+    "read_data": "files",
+    "read_leadfield": "files",
+    "read_variables": "files",
+    "write_reconstruction": "files",
+    "write_stc": "files",
+    "apply_skf": "apply",
+    "prepare": "apply",
+    "make_stc": "stc",
+    "to_dask": "zarr_dask",
+    "to_zarr": "zarr_dask",
+}
+
+__all__ = list(_HOMES)
+
+
+def __getattr__(name):
+    if name not in _HOMES:
+        raise AttributeError(f"module 'skf_ref.io' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{_HOMES[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted({*globals(), *_HOMES})

@@ -1,0 +1,221 @@
+r"""The exact fast path: the SKF and both smoothers in the singular basis of the lead field.
+
+It applies to the paper's model: ``A = a I``, ``Q = q I``, ``P_0 = theta0 I`` and a constant SPD
+noise covariance ``R``. Nothing is approximated; the result equals
+:mod:`skf_ref.method.paths.dense` to rounding. Cost: one thin SVD, O(r) work per step, and a few
+(n, r) x (r, T) products, with ``r = rank(L) <= n_channels``. Memory O(n r + n T); no (n, n) matrix
+is formed. The rank-r recursions themselves, and the whitening and SVD (:class:`SpectralBasis`),
+live in :mod:`skf_ref.method.paths.singular_basis`; this module forms the n-dimensional outputs
+from them.
+
+Why it equals the dense recursion, equation by equation (docs/model.md §2-3)
+---------------------------------------------------------------------------
+**Whitening.** With ``R = C C^T`` (Cholesky), ``L~ = C^{-1} L``, ``y~ = C^{-1} y`` and noise
+covariance I give the same means and covariances: ``S~ = C^{-1} S C^{-T}`` and
+``K~ = K C``, so ``K S K^T = K~ S~ K~^T`` and the weights §2.2 (7) are unchanged. The
+log-likelihood changes by the Jacobian: ``log N(e; 0, S) = log N(e~; 0, S~) - log|det C|``.
+
+**Basis.** Let ``L~ = U diag(s) V^T`` (thin SVD, ``V`` (n, r) with orthonormal columns,
+``V_perp`` its orthogonal complement, never formed). Claim: every covariance has the form
+``P = V diag(p) V^T + c (I - V V^T)``, with a vector ``p`` (r,) and one scalar ``c``.
+``P_0 = theta0 I`` has it (``p = theta0``, ``c = theta0``). If ``P_{t-1|t-1}`` has it:
+
+- predict §2.2 (4): ``a^2 P + q I`` has it with ``p_pred = a^2 p + q``, ``c_pred = a^2 c + q``;
+- update §2.2 (5): ``S~ = U diag(s^2 p_pred) U^T + I``, so in the basis ``U`` (completed to R^m)
+  ``S~`` is diagonal with entries ``s^2 p_pred + 1`` on ``U`` and 1 elsewhere, and
+  ``K~ = P L~^T S~^{-1} = V diag(g) U^T`` with ``g = p_pred s / (s^2 p_pred + 1)``;
+  ``P_{t|t} = P_pred - K~ S~ K~^T`` has ``p = p_pred / (s^2 p_pred + 1)``, ``c = c_pred``
+  (the lead field does not see ``V_perp``: no update there).
+
+**Means.** ``x_0 = 0`` and ``K~`` maps into ``span V``, so ``x_t = V xi_t`` with
+``xi_t = a xi_{t-1} + g (eta_t - s a xi_{t-1})``, ``eta_t = U^T y~_t``.
+
+**Log-likelihood.** The innovation ``e~ = y~ - U (s a xi)`` has ``U^T e~ = eta - s a xi``
+and, on the complement of ``U``, the part of ``y~`` that no source explains, ``rho_t``:
+``log N(e~; 0, S~) = -(m log 2 pi + sum log(s^2 p_pred + 1)
++ sum (U^T e~)^2 / (s^2 p_pred + 1) + ||rho_t||^2) / 2``.
+
+**Weights, §2.2 (7).** ``w = diag(P^{1/2} L~^T S~^{-1} L~ P^{1/2})`` (docs/model.md §2) and
+``L~ P^{1/2} = U diag(s sqrt(p_pred)) V^T``, so
+``w = (V o V) omega`` with ``omega = s^2 p_pred / (s^2 p_pred + 1)`` (``o``: elementwise).
+**Output, §2.2 (6).** ``P_pred^{-1/2} x = V diag(p_pred^{-1/2}) xi``.
+
+**Smoother gains, §2.3 (4).** ``G_t = P_{t|t} a P_{t+1|t}^{-1} = V diag(gamma_t) V^T
++ beta_t (I - V V^T)`` with ``gamma_t = a p_{t|t} / p_{t+1|t}`` and the scalar
+``beta_t = a c_{t|t} / c_{t+1|t} = a / (a^2 + q / c_{t|t})``, computed from the ratio
+``q / c`` so that it stays finite when ``c`` grows past the largest float (``|a| > 1``).
+
+- ``"rts-state"``: ``x^s`` stays in ``span V``:
+  ``xi^s_t = xi_t + gamma_t (xi^s_{t+1} - a xi_t)``, then §2.2 (6) as above.
+- ``"rts-standardized"``: ``z`` is not in ``span V``. Write ``G_t = beta_t I +
+  V diag(gamma_t - beta_t) V^T``. The scalar part gives, on whole vectors,
+  ``h_t = z_t + beta_t (h_{t+1} - a z_t)``, ``h_T = z_T`` (O(n) per step, no product with
+  a matrix). The rest ``d_t = s_t - h_t`` satisfies ``d_T = 0`` and
+  ``d_t = beta_t d_{t+1} + V diag(gamma_t - beta_t) V^T (s_{t+1} - a z_t)``, so it lies in
+  ``span V``: ``d_t = V delta_t``. With ``zeta = V^T z``, ``chi = V^T h`` (which obeys the
+  scalar recursion on ``zeta``) and ``V^T s_{t+1} = chi_{t+1} + delta_{t+1}``:
+  ``delta_T = 0``, ``delta_t = gamma_t delta_{t+1} + (gamma_t - beta_t)(chi_{t+1} - a zeta_t)``.
+  So ``s = h + V delta``: one product ``V^T z``, one product ``V delta``, O(r T) recursions.
+
+Arrays are kept time-major, (T, n), internally; the result is handed out as (n, T) views.
+"""
+
+import functools
+
+import numpy as np
+
+from ..._utils.checks import InputError
+from ..result import Reconstruction
+from ..standardization import overflow_cause
+from .singular_basis import (
+    SpectralBasis,
+    backward,
+    covariances,
+    filter_means,
+    log_det_innovations,
+    log_likelihood,
+    rts_gains,
+)
+from .spectral_rows import NAMES, SpectralRows
+
+__all__ = ["SpectralModel", "run"]
+
+
+class SpectralModel:
+    """The data-independent part of the spectral path, prepared once, applied many times.
+
+    Whitening, the SVD and the whole covariance recursion depend on the model and the number
+    of steps only, so runs that share them (several seeds of a simulation, several
+    exponents and smoothers) pay for them once.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        With ``transition``, ``q`` and ``theta0`` scalars or scalar multiples of the
+        identity (:meth:`StateSpaceModel.isotropic_problem` is None).
+    n_times : int
+
+    Examples
+    --------
+    >>> from skf_ref.method.model import StateSpaceModel
+    >>> rng = np.random.default_rng(0)
+    >>> model = StateSpaceModel.create(rng.standard_normal((6, 9)), noise_std=1.0,
+    ...                                theta0=1.0, q=0.1)
+    >>> prepared = SpectralModel(model, n_times=5)
+    >>> a = prepared.apply(rng.standard_normal((6, 5)), exponent=0.5, smoother=None)
+    >>> b = prepared.apply(rng.standard_normal((6, 5)), exponent=1.25, smoother="rts-state")
+    >>> a.z.shape, b.z.shape, prepared.rank
+    ((9, 5), (9, 5), 6)
+    """
+
+    def __init__(self, model, n_times, basis=None):
+        problem = model.isotropic_problem()
+        if problem:
+            raise InputError(
+                f"the spectral path needs A = a I, Q = q I, P_0 = theta0 I: {problem}"
+            )
+        a, q, theta0 = (model.scalar(name) for name in ("transition", "q", "theta0"))
+        self.model, self.a, self.n_times = model, a, n_times
+        self.n_channels, self.n_sources = model.L.shape
+        self.basis = SpectralBasis(model.L, model.R) if basis is None else basis
+        self.U, self.s, self.V = self.basis.U, self.basis.s, self.basis.V
+        self.p_pred, self.p_filt, self._u = covariances(self.s, a, q, theta0, n_times)
+        # w = (V o V) omega, omega = s^2 p / (s^2 p + 1)               §2.2 (7)
+        self.omega = self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)
+        self._log_det_S = log_det_innovations(self.s, self.p_pred)
+        self._check_range()
+
+    def _check_range(self):
+        """Refuse, before any output, a model whose covariances leave double precision."""
+        if not (np.isfinite(self.p_pred).all() and np.isfinite(self._log_det_S)):
+            raise InputError(
+                f"the predicted covariance overflows: theta0={self.model.theta0:g}, "
+                f"q={self.model.q:g} and transition={self.a:g} are out of range at this lead "
+                f"field's scale (largest whitened singular value {self.s[0]:.3g}); rescale L, "
+                "the noise or the priors"
+            )
+        if not self.omega.min() > 0:
+            raise InputError(overflow_cause(self.omega.min(), 0.0))
+
+    @property
+    def rank(self):
+        """int : Numerical rank of the whitened lead field."""
+        return len(self.s)
+
+    def apply(self, Y, exponent, smoother, memory_limit=None):
+        """Filter and smooth data ``Y``; equal to :func:`skf_ref.method.paths.dense.run` on the
+        model.
+
+        Parameters
+        ----------
+        Y : ndarray, shape (n_channels, n_times)
+        exponent : float
+        smoother : {None, "rts-standardized", "rts-state"}
+        memory_limit : float, optional
+            Bytes an (n, T) output asked for in memory may take (default half the memory
+            available then); streamed outputs need only a few blocks.
+
+        Returns
+        -------
+        Reconstruction
+            Its arrays are computed on first access.
+        """
+        m, T, a = self.n_channels, self.n_times, self.a
+        Y = self.model.check_data(Y)
+        if Y.shape != (m, T):
+            raise InputError(f"Y must have shape ({m}, {T}), got {Y.shape}")
+        eta, rho_sq = self.basis.project(Y)  # U^T y~ (T, r) and the data outside span U
+        xi, quadratic, _ = filter_means(self.s, eta, self.p_pred, a)
+        total = log_likelihood(quadratic, self._log_det_S, rho_sq, self.basis.log_det_C, m, T)
+        gamma, beta = rts_gains(self.p_pred, self.p_filt, self._u, a)
+        rows = SpectralRows(
+            self.V,
+            self.omega,
+            self.p_pred,
+            xi,
+            exponent,
+            smoother,
+            xi_smoothed=backward(xi, gamma, a) if smoother == "rts-state" else None,
+            gains=(gamma, beta, a),
+            memory_limit=memory_limit,
+        )
+        return Reconstruction(
+            **{name: functools.partial(_transposed, rows, name) for name in NAMES},
+            log_likelihood=total,
+            n_sources=self.n_sources,
+            n_times=T,
+            exponent=exponent,
+            smoother=smoother,
+            method="spectral",
+            theta0=self.model.theta0,
+            q=self.model.q,
+            transition=self.model.transition,
+            diagnose=lambda: overflow_cause(rows.min_raw_weight(), exponent),
+            rows=rows,
+        )
+
+
+def _transposed(rows, name):
+    return rows.array(name).T
+
+
+def run(model, Y, exponent, smoother, memory_limit=None):
+    """Filter and optionally smooth in the singular basis; equal to
+    :func:`skf_ref.method.paths.dense.run`.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        Isotropic: see :class:`SpectralModel`.
+    Y : ndarray, shape (n_channels, n_times)
+    exponent : float
+    smoother : {None, "rts-standardized", "rts-state"}
+    memory_limit : float, optional
+        See :meth:`SpectralModel.apply`.
+
+    Returns
+    -------
+    Reconstruction
+        Its arrays are computed on first access.
+    """
+    return SpectralModel(model, Y.shape[1]).apply(Y, exponent, smoother, memory_limit)

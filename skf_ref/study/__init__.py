@@ -1,0 +1,13 @@
+"""The P20/N20 study: head models, the scenario, metrics, figures, sweeps, baselines, demo.
+
+- :mod:`.head`: EEG head models (MNE's sphere, the sample subject's BEM) and source spaces;
+- :mod:`.scenario`: the paper's two dipoles and their simulated EEG;
+- :mod:`.regions`, :mod:`.metrics`: what a reconstruction is scored by;
+- :mod:`.plots`: the figures (the only place matplotlib is imported);
+- :mod:`.sweep`: grids of settings over seeds, resumable, in parallel;
+- :mod:`.baselines`: MNE-Python's inverse methods on the same heads and data;
+- :mod:`.demo`: what ``skf-ref demo`` runs.
+
+The study imports the method and MNE-Python (the ``study`` extra); nothing below it imports
+the study.
+"""

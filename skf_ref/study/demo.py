@@ -1,0 +1,361 @@
+"""The P20/N20 demo as a library function: what ``skf-ref demo`` runs, from data to figures.
+
+One simulated data set of the paper's scenario (a deep thalamic and a superficial cortical
+dipole, 2 ms apart) and its control, the same noise with the deep source left out, each
+reconstructed three ways:
+
+- the SKF at the chosen setting (default: the recommended one, exponent 0.5 without
+  smoothing, :data:`skf_ref.RECOMMENDED_SETTING`);
+- the SKF at the paper's setting (exponent 1.25, ``"rts-standardized"``,
+  :data:`skf_ref.PAPER_SETTING`);
+- MNE's sLORETA (``mne.minimum_norm``, lambda2 = 1/9, the same noise covariance).
+
+The metrics say, for each, where the peaks are and whether the deep region "detects" a
+source (within 6 dB of the maximum at 1.5 ms) with the deep source present and absent;
+``comparison.png`` shows it on one slide. The head is the realistic one (a three-layer BEM
+of MNE's "sample" subject) when MNE's testing dataset is at hand, the sphere otherwise.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .._utils.atomic_files import atomic_path
+from .._utils.checks import InputError, check_choice, check_int
+from .._utils.log import logger, progress, verbosity
+from ..method.reconstruct import SMOOTHERS
+from ..method.settings import PAPER_SETTING
+
+__all__ = ["DATA", "HEADS", "OUTPUTS", "Demo", "run_demo"]
+
+#: The two data sets: label -> the sources active in it (the same noise draws).
+DATA = {"present": ("deep", "superficial"), "deep absent": ("superficial",)}
+#: Which head: the realistic one if MNE's testing dataset is found, or either by name.
+HEADS = ("auto", "realistic", "sphere")
+#: The files a demo writes into its output folder.
+OUTPUTS = (
+    "comparison.png",
+    "metrics.csv",
+    "metrics_columns.csv",
+    "projections_paper.png",
+    "projections_skf.png",
+    "reconstruction.npz",
+    "settings.json",
+    "time_courses_paper.png",
+    "time_courses_skf.png",
+)
+_SLORETA_LAMBDA2 = 1.0 / 9.0
+_SUFFIX = {"present": "", "deep absent": "_deep_absent"}  # of the arrays' names
+
+
+@dataclass(frozen=True, eq=False)
+class Demo:
+    """What :func:`run_demo` computed.
+
+    Attributes
+    ----------
+    head : HeadModel
+    simulations : dict
+        :data:`DATA` label -> :class:`skf_ref.study.scenario.Simulation`.
+    methods : dict
+        Method key (``"skf"``, ``"paper"``, ``"sLORETA"``) -> its label in tables and figures.
+    reconstructions : dict
+        ``(key, data)`` -> :class:`skf_ref.Reconstruction` of the two SKF settings.
+    estimates : dict
+        ``(key, data)`` -> amplitude, ndarray shape (n_positions, n_times): the norm over
+        the three orientations, every method.
+    metrics : pandas.DataFrame
+        Rows: :data:`skf_ref.study.metrics.COLUMNS`' metrics; columns ``"<key>, <data>"``.
+    settings : dict
+        Everything that produced the results (JSON-ready).
+    """
+
+    head: object = field(repr=False)
+    simulations: dict = field(repr=False)
+    methods: dict
+    reconstructions: dict = field(repr=False)
+    estimates: dict = field(repr=False)
+    metrics: object = field(repr=False)
+    settings: dict = field(repr=False)
+
+
+def run_demo(
+    out=None,
+    *,
+    snr_db=30.0,
+    seed=0,
+    head="auto",
+    source_space="anatomical",
+    montage="biosemi64",
+    n_positions=None,
+    testing_data=None,
+    cache_dir=None,
+    pm_snr_db=0.0,
+    ep_snr_db=20.0,
+    exponent=0.5,
+    smoother=None,
+    verbose=None,
+):
+    """Simulate the P20/N20 scenario and its control; reconstruct them three ways.
+
+    Parameters
+    ----------
+    out : path-like or None
+        Folder to write :data:`OUTPUTS` into (created; checked before any computation);
+        None: nothing is written.
+    snr_db : float
+        Peak SNR of the data (dB).
+    seed : int
+        Noise seed.
+    head : {"auto", "realistic", "sphere"}
+        "auto": realistic if MNE's testing dataset is found (never downloaded).
+    source_space : {"anatomical", "volume"}
+        Cortex + thalamus, or a grid filling the brain compartment.
+    montage : str
+        An MNE built-in montage.
+    n_positions : int or None
+        Positions of the sphere's volume grid (only there; default 3000).
+    testing_data, cache_dir : path-like or None
+        MNE's testing dataset folder, and where the realistic head's forwards are cached.
+    pm_snr_db, ep_snr_db : float or "auto"
+        The SKF's priors (docs/model.md §4); "auto": chosen by the marginal likelihood of
+        the data with both sources; the control reuses them.
+    exponent : float
+        Standardization exponent of the first SKF (the paper's setting is the second).
+    smoother : {None, "rts-standardized", "rts-state"}
+        Its smoother.
+    verbose : bool or str or int or None
+        Progress on the ``"skf_ref"`` logger, as MNE's ``verbose``.
+
+    Returns
+    -------
+    Demo
+    """
+    import pandas as pd
+
+    from . import metrics
+    from .head import find_testing_data, make_head
+    from .scenario import p20n20_scenario, simulate
+
+    check_choice("head", head, HEADS)
+    check_choice("smoother", smoother, SMOOTHERS)
+    seed = check_int("seed", seed, minimum=0)
+    out = _output_folder(out)
+    with verbosity(verbose):
+        testing = None if head == "sphere" else find_testing_data(testing_data)
+        if head == "realistic" and testing is None:
+            raise InputError(
+                "head='realistic' needs MNE's testing dataset: give testing_data (the folder "
+                "mne.datasets.testing.data_path() returns); MNE did not find it"
+            )
+        if n_positions is not None and (testing is not None or source_space != "volume"):
+            raise InputError(
+                "n_positions sizes the sphere's volume grid only (head='sphere', "
+                "source_space='volume'); the other source spaces have fixed spacings"
+            )
+        if testing is None and source_space == "volume":
+            _check_size(n_positions or 3000, montage)
+        with progress("head model"):
+            model = make_head(
+                "sphere" if testing is None else "bem",
+                source_space,
+                n_positions=n_positions or 3000,
+                montage=montage,
+                testing_data=testing,
+                cache_dir=cache_dir,
+            )
+        logger.info("head: %s", model.description)
+        scenario = p20n20_scenario()
+        sims = {
+            data: simulate(model, scenario, snr_db, seed, sources=sources)
+            for data, sources in DATA.items()
+        }
+        setting = {"exponent": exponent, "smoother": smoother}
+        with progress("SKF and sLORETA"):
+            priors, tuning = _priors(model, sims["present"], pm_snr_db, ep_snr_db)
+            reconstructions = _skf(model, sims, priors, {"skf": setting, "paper": PAPER_SETTING})
+            estimates = {key: rec.amplitude(3) for key, rec in reconstructions.items()}
+            estimates.update(_sloreta(model, sims))
+        truth = sims["present"].truth
+        table = pd.DataFrame(
+            {
+                f"{key}, {data}": metrics.summarize(a, model, truth)
+                for (key, data), a in estimates.items()
+            }
+        )
+        methods = {
+            "skf": _label(setting),
+            "paper": _label(PAPER_SETTING) + " (paper)",
+            "sLORETA": "sLORETA (MNE), λ² = 1/9",
+        }
+        settings = _settings(model, sims["present"], setting, priors, tuning, snr_db, seed)
+        settings.update(pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db, positions_requested=n_positions)
+        demo = Demo(model, sims, methods, reconstructions, estimates, table, settings)
+        if out is not None:
+            with progress("figures and files"):
+                write(demo, out)
+    return demo
+
+
+def _check_size(n_positions, montage):
+    """Refuse a sphere grid whose model and six outputs do not fit in memory, before work."""
+    from .._utils import memory
+    from .head import check_size
+
+    n = 3 * n_positions  # four SKF runs, each with its model and z and weights in memory
+    outputs = 4 * memory.spectral_memory(n, 64, 41) + 8 * 8 * n * 41
+    check_size(n_positions, montage, extra=outputs, name="n_positions")
+
+
+def _output_folder(out):
+    """``out`` as a Path, refused before any work if it cannot become a folder."""
+    if out is None:
+        return None
+    out = Path(out)
+    existing = next(p for p in (out, *out.parents) if p.exists())
+    if not existing.is_dir():
+        raise InputError(f"out must be a folder, got {str(out)!r}; {str(existing)!r} is a file")
+    return out
+
+
+def _label(setting):
+    smoother = setting["smoother"] or "no smoother"
+    return f"SKF, exponent {setting['exponent']:g}, {smoother}"
+
+
+def _priors(head, sim, pm_snr_db, ep_snr_db):
+    from ..method.tuning import choose_priors
+
+    theta0, q, tuning = choose_priors(
+        head.leadfield, sim.Y, noise_std=sim.sigma, pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db
+    )
+    if tuning is not None:
+        logger.info(
+            "priors chosen by the data: PM-SNR %.2f dB, EP-SNR %.2f dB (log-likelihood %.6g)",
+            tuning.pm_snr_db,
+            tuning.ep_snr_db,
+            tuning.log_likelihood,
+        )
+    return (theta0, q), tuning
+
+
+def _skf(head, sims, priors, settings):
+    from ..method.reconstruct import reconstruct
+
+    theta0, q = priors
+    out = {}
+    for key, setting in settings.items():
+        for data, sim in sims.items():
+            rec = reconstruct(
+                head.leadfield, sim.Y, noise_std=sim.sigma, theta0=theta0, q=q, **setting
+            )
+            _ = rec.z, rec.weights  # computed (and checked finite) before any file is written
+            out[key, data] = rec
+    return out
+
+
+def _sloreta(head, sims):
+    from .baselines import apply_minimum_norm, inverse_operator
+
+    inverse = inverse_operator(head, sims["present"])
+    return {
+        ("sLORETA", data): apply_minimum_norm(head, sim, inverse, "sLORETA", _SLORETA_LAMBDA2)
+        for data, sim in sims.items()
+    }
+
+
+def _settings(head, sim, setting, priors, tuning, snr_db, seed):
+    from .._utils.provenance import machine
+
+    return {
+        "snr_db": snr_db,
+        "priors_chosen_by_the_data": tuning is not None,
+        "tuned_pm_snr_db": None if tuning is None else tuning.pm_snr_db,
+        "tuned_ep_snr_db": None if tuning is None else tuning.ep_snr_db,
+        "exponent": setting["exponent"],
+        "smoother": setting["smoother"],
+        "paper_setting": dict(PAPER_SETTING),
+        "sloreta_lambda2": _SLORETA_LAMBDA2,
+        "data": {label: list(sources) for label, sources in DATA.items()},
+        "n_positions": head.n_positions,
+        "montage": head.montage,
+        "seed": seed,
+        "sigma": sim.sigma,
+        "theta0": priors[0],
+        "q": priors[1],
+        "head": head.description,
+        "head_kind": "realistic" if head.conductor_kind == "bem" else "sphere",
+        "conductor": head.conductor_kind,
+        "source_space": head.source_space,
+        "sources_moved_mm": list(sim.truth.moved_mm),
+        "machine": machine(),
+    }
+
+
+def write(demo, out):
+    """Write a demo's :data:`OUTPUTS` into the folder ``out`` (each file atomically)."""
+    import pandas as pd
+
+    from . import metrics
+
+    out = _output_folder(out)
+    out.mkdir(parents=True, exist_ok=True)
+    present = demo.simulations["present"]
+    arrays = {}
+    for (key, data), rec in demo.reconstructions.items():
+        arrays[f"z_{key}{_SUFFIX[data]}"] = rec.z
+    for data, sim in demo.simulations.items():
+        arrays[f"amplitude_sloreta{_SUFFIX[data]}"] = demo.estimates["sLORETA", data]
+        arrays[f"Y{_SUFFIX[data]}"] = sim.Y
+    with atomic_path(out / "reconstruction.npz") as tmp:
+        np.savez_compressed(
+            tmp,
+            **arrays,
+            weights=demo.reconstructions["skf", "present"].weights,
+            positions=demo.head.positions,
+            times=present.times,
+            true_positions=present.truth.positions,
+            true_waveforms=present.truth.waveforms,
+        )
+    with atomic_path(out / "settings.json") as tmp:
+        tmp.write_text(json.dumps(demo.settings, indent=1) + "\n")
+    with atomic_path(out / "metrics.csv") as tmp:
+        demo.metrics.to_csv(tmp, index_label="metric")
+    with atomic_path(out / "metrics_columns.csv") as tmp:
+        columns = pd.DataFrame(metrics.COLUMNS, columns=["metric", "meaning", "unit", "better"])
+        columns.to_csv(tmp, index=False)
+    _figures(demo, out)
+
+
+def _figures(demo, out):
+    from . import plots
+
+    present = demo.simulations["present"]
+    truth = present.truth
+    estimates = {
+        (demo.methods[key], data): amplitude for (key, data), amplitude in demo.estimates.items()
+    }
+    title = (
+        f"Deep source present and absent, {present.snr_db:g} dB, seed "
+        f"{demo.settings['seed']}: coronal MIP at 1.5 ms (the deep peak)"
+    )
+    with atomic_path(out / "comparison.png") as tmp:
+        plots.plot_comparison(
+            estimates, demo.head, truth, absent={"deep absent": ("deep",)}, title=title, path=tmp
+        )
+    for key in ("skf", "paper"):
+        rec = demo.reconstructions[key, "present"]
+        with atomic_path(out / f"time_courses_{key}.png") as tmp:
+            plots.plot_time_courses(rec, demo.head, truth, title=demo.methods[key], path=tmp)
+        with atomic_path(out / f"projections_{key}.png") as tmp:
+            plots.plot_average_reconstruction(
+                rec,
+                demo.head,
+                truth,
+                title=f"{demo.methods[key]}, {present.snr_db:g} dB",
+                path=tmp,
+            )

@@ -1,0 +1,215 @@
+"""Results files of a sweep: read without writing, checked line by line, locked while written.
+
+A CSV gets one whole line per finished run in a single ``write`` call, flushed to disk; a torn
+last line (a write cut short by power loss or a kill) is ignored when the file is read and
+cut off, with a warning, when a sweep resumes writing. A Parquet file is rewritten through a
+temporary file and a rename after each task. Any other damage (a line with missing or extra
+fields, an empty or non-numeric key, a run written twice, columns of another program) is an
+:class:`~skf_ref.InputError` naming the file and the line: nothing is dropped or recomputed
+silently.
+"""
+
+import csv
+import io
+import os
+import warnings
+from pathlib import Path
+
+import pandas as pd
+
+from ..._utils.atomic_files import atomic_path
+from ..._utils.checks import InputError
+from ._grid import KEY, row_key
+
+__all__ = ["ResultsFile", "TornLineWarning", "read_results"]
+
+
+class TornLineWarning(UserWarning):
+    """A results file ended in a torn line (an interrupted write); it was cut off."""
+
+
+def _lock_path(out):
+    return out.with_name(f".{out.name}.lock")
+
+
+def _is_parquet(out):
+    return out.suffix == ".parquet"
+
+
+def read_results(out):
+    """The rows already in a results file (none if it does not exist). Never writes.
+
+    Parameters
+    ----------
+    out : path-like
+        A ``.csv`` or ``.parquet`` file written by :func:`skf_ref.study.sweep.run_sweep`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Every complete row; a torn last line of a CSV (no final newline) is left out.
+
+    Raises
+    ------
+    skf_ref.InputError
+        The file is not a results file or is damaged; the message names the file and line.
+    """
+    out = Path(out)
+    if not out.exists() or out.stat().st_size == 0:
+        return pd.DataFrame()
+    if _is_parquet(out):
+        try:
+            frame = pd.read_parquet(out)
+        except Exception as err:  # pyarrow raises its own types for unreadable files
+            raise InputError(f"{out} is not a readable Parquet file: {err}") from err
+        return _checked(frame, out, lambda i: f"row {i}")
+    text = _complete_lines(out)
+    _check_fields(text, out)
+    frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""])
+    return _checked(frame, out, lambda i: f"line {i + 2}")
+
+
+def _complete_lines(out):
+    data = out.read_bytes()
+    data = data[: data.rfind(b"\n") + 1]  # a torn last line is not a row yet
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise InputError(
+            f"{out} is not a results file: byte {err.start} is not UTF-8 text"
+        ) from err
+
+
+def _check_fields(text, out):
+    rows = csv.reader(io.StringIO(text))
+    header = next(rows, None)
+    missing = [column for column in KEY if column not in (header or [])]
+    if missing:
+        raise InputError(
+            f"{out} is not a results file of skf-ref sweep: its header lacks the columns "
+            f"{missing}; give a new file name"
+        )
+    for number, fields in enumerate(rows, start=2):
+        if len(fields) != len(header):
+            raise InputError(
+                f"{out}, line {number}: {len(fields)} fields, expected {len(header)}; the file "
+                "is damaged: delete that line (its run is recomputed) or the file"
+            )
+
+
+def _checked(frame, out, where):
+    missing = [column for column in KEY if column not in frame.columns]
+    if missing:
+        raise InputError(
+            f"{out} is not a results file of skf-ref sweep: it lacks the columns {missing}"
+        )
+    seen = {}
+    for i, row in enumerate(frame[list(KEY)].itertuples(index=False)):
+        values = dict(zip(KEY, row, strict=True))
+        for column, value in values.items():
+            if pd.isna(value) or value == "":
+                raise InputError(f"{out}, {where(i)}: {column!r} is empty; the file is damaged")
+        try:
+            key = row_key(values)
+        except ValueError as err:
+            raise InputError(f"{out}, {where(i)}: a key column is not a number ({err})") from err
+        if key in seen:
+            raise InputError(
+                f"{out}, {where(i)} repeats the run of {where(seen[key])}; the file is damaged: "
+                "delete one of them"
+            )
+        seen[key] = i
+    return frame
+
+
+class ResultsFile:
+    """A results file opened for a sweep: locked, checked, appended to one run at a time.
+
+    Use as a context manager. A second sweep on the same file fails at once with an
+    :class:`~skf_ref.InputError` saying the file is in use; the lock is released on exit.
+
+    Parameters
+    ----------
+    out : path-like
+        ``.csv`` or ``.parquet``.
+
+    Attributes
+    ----------
+    existing : pandas.DataFrame
+        The rows already there when the file was opened.
+    """
+
+    def __init__(self, out):
+        self.out = Path(out)
+        if self.out.suffix not in (".csv", ".parquet"):
+            raise InputError(f"out must be a .csv or .parquet file name, got {str(self.out)!r}")
+        self.existing = pd.DataFrame()
+        self._lock = None
+
+    def __enter__(self):
+        from filelock import FileLock, Timeout
+
+        if _is_parquet(self.out):
+            import pyarrow  # noqa: F401  (fail before any work if Parquet cannot be written)
+        self._lock = FileLock(_lock_path(self.out), timeout=0)
+        try:
+            self._lock.acquire()
+        except Timeout:
+            raise InputError(
+                f"{self.out} is in use by another sweep (lock {_lock_path(self.out).name}); "
+                "wait for it to finish or write to another file"
+            ) from None
+        try:
+            self.existing = read_results(self.out)
+            self._columns = list(self.existing.columns)
+            if not _is_parquet(self.out):
+                self._cut_torn_line()
+        except BaseException:
+            self._lock.release()
+            raise
+        return self
+
+    def __exit__(self, *exc):
+        self._lock.release()
+        return False
+
+    def _cut_torn_line(self):
+        if not self.out.exists():
+            return
+        data = self.out.read_bytes()
+        whole = data.rfind(b"\n") + 1
+        if whole < len(data):
+            with open(self.out, "r+b") as f:
+                f.truncate(whole)
+            warnings.warn(
+                f"{self.out}: cut off a torn last line (an interrupted write); its run is "
+                "recomputed",
+                TornLineWarning,
+                stacklevel=3,
+            )
+
+    def add(self, rows):
+        """Append finished runs (dicts with the same keys, in the same order)."""
+        if _is_parquet(self.out):
+            self.existing = pd.concat([self.existing, pd.DataFrame(rows)], ignore_index=True)
+            with atomic_path(self.out) as tmp:
+                self.existing.to_parquet(tmp, index=False)
+            return
+        frame = pd.DataFrame(rows)
+        header = not self._columns
+        if header:
+            self._columns = list(frame.columns)
+        elif list(frame.columns) != self._columns:
+            raise InputError(
+                f"{self.out}: its columns differ from this sweep's rows (written by another "
+                "version of skf_ref?); give a new file name"
+            )
+        for _, row in frame.iterrows():
+            text = row.to_frame().T.to_csv(index=False, header=header, lineterminator="\n")
+            fd = os.open(self.out, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+            try:
+                os.write(fd, text.encode())  # one whole line (with the header, the first time)
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+            header = False

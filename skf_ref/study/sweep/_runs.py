@@ -1,0 +1,287 @@
+"""Sweep runs: one group of runs on one prepared model, and the sweep over a grid."""
+
+import ctypes
+import ctypes.util
+import itertools
+import math
+import multiprocessing
+import signal
+import sys
+
+from ..._utils.checks import InputError, check_int
+from ..._utils.provenance import blas_threads, package_versions
+from ._grid import AXES, GROUP, check_grid, row_key, smoother_label
+from ._results import ResultsFile, read_results
+
+__all__ = ["run_group", "run_on_head", "run_sweep"]
+
+
+def _die_with_parent():
+    """In a worker process on Linux: be terminated when the process that started it dies.
+
+    A sweep killed with SIGKILL cannot stop its joblib (loky) workers; without this they
+    would run on as orphans until their idle timeout.
+    """
+    if sys.platform != "linux" or multiprocessing.current_process().name == "MainProcess":
+        return
+    libc = ctypes.CDLL(ctypes.util.find_library("c"), use_errno=True)
+    pr_set_pdeathsig = 1
+    libc.prctl(pr_set_pdeathsig, signal.SIGTERM)
+
+
+def _head(n_positions, montage, head):
+    from ..head import make_head, make_head_model
+
+    if head is None:
+        return make_head_model(n_positions, montage)
+    return make_head(**dict(head, montage=montage))
+
+
+def run_group(
+    snr_db, ep_snr_db, pm_snr_db, runs, n_positions=3000, montage="biosemi64", head=None, data=None
+):
+    """All runs that share a noise level and priors, on one prepared spectral model.
+
+    Parameters
+    ----------
+    snr_db, ep_snr_db, pm_snr_db : float
+    runs : list of (exponent, smoother, seed)
+    n_positions : int
+    montage : str
+    head : dict or None
+        Keyword arguments of :func:`skf_ref.study.head.make_head` (``conductor``,
+        ``source_space``, ``testing_data``, ``cache_dir``...); None: the sphere's volume grid
+        of ``n_positions``.
+    data : dict or None
+        Keyword arguments of :func:`run_on_head` that shape the data (``sources``,
+        ``forward``, ``window``).
+
+    Returns
+    -------
+    list of dict
+        One tidy row per run, in the order of the seeds, then of ``runs``.
+    """
+    _die_with_parent()
+    model = _head(n_positions, montage, head)
+    return run_on_head(model, snr_db, ep_snr_db, pm_snr_db, runs, **(data or {}))
+
+
+def _sources_label(sources):
+    return "+".join(sources)
+
+
+def _region_values(rec, head, truth):
+    """Raw region maxima (standardized amplitude) at the two peaks, for the controls, and
+    the height (m, head coordinates) of the global maximum at each peak."""
+    from ..regions import region_time_course
+
+    amplitude = rec.amplitude(3)
+    i_deep, i_sup = truth.peak_indices
+    deep = region_time_course(amplitude, head.positions, truth.positions[0])
+    sup = region_time_course(amplitude, head.positions, truth.positions[1])
+    return {
+        "deep_max_at_deep_peak": float(deep[i_deep]),
+        "deep_max_at_superficial_peak": float(deep[i_sup]),
+        "superficial_max_at_superficial_peak": float(sup[i_sup]),
+        "max_at_deep_peak": float(amplitude[:, i_deep].max()),
+        "max_at_superficial_peak": float(amplitude[:, i_sup].max()),
+        "max_height_at_deep_peak": float(head.positions[amplitude[:, i_deep].argmax(), 2]),
+        "max_height_at_superficial_peak": float(head.positions[amplitude[:, i_sup].argmax(), 2]),
+    }
+
+
+def run_on_head(
+    head,
+    snr_db,
+    ep_snr_db,
+    pm_snr_db,
+    runs,
+    *,
+    sources=("deep", "superficial"),
+    forward="exact",
+    window="hann",
+):
+    """:func:`run_group` on a given head model (a cropped grid, another montage...).
+
+    Parameters
+    ----------
+    head : skf_ref.study.head.HeadModel
+    snr_db, ep_snr_db, pm_snr_db : float
+    runs : list of (exponent, smoother, seed)
+    sources : sequence of str
+        Sources active in the data (:func:`skf_ref.study.scenario.simulate`); the metrics always
+        refer to both.
+    forward : {"exact", "grid"}
+        How the data's field is computed (:func:`skf_ref.study.scenario.simulate`).
+    window : str
+        Pulse window of the scenario (:func:`skf_ref.study.scenario.p20n20_scenario`).
+
+    Returns
+    -------
+    list of dict
+        One row per run; ``n_positions`` is the head's own count.
+    """
+    from ...method.model import StateSpaceModel
+    from ...method.paths.spectral import SpectralModel
+    from ...method.priors import priors_from_snr
+    from .. import metrics
+    from .. import scenario as simulate
+
+    scenario = simulate.p20n20_scenario(window=window)
+    L, T = head.leadfield, len(scenario.times)
+    model = None
+    rows = []
+    versions = {f"{name}_version": v for name, v in package_versions().items()}
+    blas = blas_threads()
+    versions["blas"] = " ".join(f"{b['library']}-{b['version']}" for b in blas) or "none"
+    versions["blas_threads"] = max((b["threads"] for b in blas), default=1)
+    for seed in sorted({seed for _, _, seed in runs}):
+        sim = simulate.simulate(head, scenario, snr_db, seed, sources=sources, forward=forward)
+        if model is None:  # sigma depends on the noise level only, not on the seed
+            theta0, q = priors_from_snr(L, sim.sigma, pm_snr_db, ep_snr_db, T)
+            state_space = StateSpaceModel.create(L, noise_std=sim.sigma, theta0=theta0, q=q)
+            model = SpectralModel(state_space, T)
+        for exponent, smoother, run_seed in runs:
+            if run_seed != seed:
+                continue
+            rec = model.apply(sim.Y, exponent, smoother)
+            params = dict(
+                n_positions=head.n_positions,
+                montage=head.montage,
+                conductor=head.conductor_kind,
+                source_space=head.source_space,
+                sources=_sources_label(sim.sources),
+                forward=forward,
+                window=window,
+                snr_db=snr_db,
+                ep_snr_db=ep_snr_db,
+                pm_snr_db=pm_snr_db,
+                exponent=exponent,
+                smoother=smoother_label(smoother),
+                seed=seed,
+                theta0=theta0,
+                q=q,
+                sigma=sim.sigma,
+                log_likelihood=rec.log_likelihood,
+            )
+            summary = metrics.summarize(rec, head, sim.truth)
+            rows.append(params | summary | _region_values(rec, head, sim.truth) | versions)
+    return rows
+
+
+def _check_identity(existing, identity, out):
+    """Refuse to add runs of one head or kind of data to a file holding another's."""
+    for column, value in identity.items():
+        if column in existing and not existing.empty and set(existing[column]) != {value}:
+            raise InputError(
+                f"{out} holds runs with {column} {sorted(set(existing[column]))}, not {value!r}; "
+                "give a new file name"
+            )
+
+
+def _pending(grid, done, n_positions, montage, runs_per_task):
+    """Unfinished runs grouped by (snr_db, ep_snr_db, pm_snr_db), in tasks of bounded size."""
+    groups = {}
+    for values in itertools.product(*(grid[a] for a in AXES)):
+        run = dict(zip(AXES, values, strict=True), n_positions=n_positions, montage=montage)
+        if row_key(run) in done:
+            continue
+        groups.setdefault(tuple(run[a] for a in GROUP), []).append(
+            (run["exponent"], run["smoother"], run["seed"])
+        )
+    return [
+        (group, runs[start : start + runs_per_task])
+        for group, runs in groups.items()
+        for start in range(0, len(runs), runs_per_task)
+    ]
+
+
+def run_sweep(
+    grid,
+    out,
+    n_jobs=1,
+    *,
+    n_positions=3000,
+    montage="biosemi64",
+    backend=None,
+    progress=True,
+    runs_per_task=24,
+    size_name="n_positions",
+    head=None,
+    data=None,
+):
+    """Run every point of a grid not yet in ``out``, appending one row per run.
+
+    Parameters
+    ----------
+    grid : mapping
+        Axis -> values over :data:`AXES`; see :func:`paper_grid`.
+    out : path-like
+        Results file: CSV, or Parquet when the name ends ``.parquet``.
+    n_jobs : int
+        joblib workers (-1: all cores).
+    n_positions : int
+        Source positions requested of the head model; rows record the count it holds
+        (:func:`skf_ref.study.head.grid_size`).
+    montage : str
+    backend : str, optional
+        joblib backend; None uses the caller's ``joblib.parallel_config`` (default loky).
+    progress : bool
+        Show a tqdm progress bar (runs done of the grid).
+    runs_per_task : int
+        Runs of one group handed to a worker at once: rows reach the file after each task,
+        so this bounds what an interruption can lose; each task prepares its model once.
+    size_name : str
+        How errors name ``n_positions`` (the command line says ``--positions``).
+    head : dict or None
+        Another head than the sphere's volume grid: keyword arguments of
+        :func:`skf_ref.study.head.make_head` (built once here, to check it and count its
+        positions, then in each worker; a BEM head's forward comes from the disk cache).
+    data : dict or None
+        Keyword arguments of :func:`run_on_head` that shape the data: ``sources`` (the
+        controls: one source, the noise of both), ``forward``, ``window``. A results file
+        holds one head and one kind of data; another is refused.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Every row of the results file, the new ones included.
+    """
+    from joblib import Parallel, delayed
+    from tqdm.auto import tqdm
+
+    from ..head import check_montage, check_size, grid_size
+
+    grid = check_grid(grid)
+    runs_per_task = check_int("runs_per_task", runs_per_task, minimum=1)
+    n_jobs = check_int("n_jobs", n_jobs, minimum=None)
+    if n_jobs == 0:
+        raise InputError("n_jobs must be a positive number of workers or -1 (all cores), got 0")
+    check_montage(montage)
+    if head is None:
+        check_size(n_positions, montage, name=size_name)
+        n_actual = grid_size(n_positions)
+        identity = dict(conductor="sphere", source_space="volume")
+    else:
+        built = _head(n_positions, montage, head)
+        n_actual = built.n_positions
+        identity = dict(conductor=built.conductor_kind, source_space=built.source_space)
+    data = dict(data or {})
+    identity["sources"] = _sources_label(data.get("sources", ("deep", "superficial")))
+    with ResultsFile(out) as results:
+        _check_identity(results.existing, identity, out)
+        done = {row_key(row) for _, row in results.existing.iterrows()}
+        tasks = _pending(grid, done, n_actual, montage, runs_per_task)
+        total = math.prod(len(v) for v in grid.values())
+        remaining = sum(len(runs) for _, runs in tasks)
+        jobs = (
+            delayed(run_group)(*group, runs, n_positions, montage, head, data)
+            for group, runs in tasks
+        )
+        parallel = Parallel(n_jobs=n_jobs, backend=backend, return_as="generator_unordered")
+        bar = tqdm(total=total, initial=total - remaining, disable=not progress, unit="run")
+        with bar:
+            for rows in parallel(jobs):
+                results.add(rows)
+                bar.update(len(rows))
+    return read_results(out)
