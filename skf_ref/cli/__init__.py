@@ -72,8 +72,9 @@ def main(argv=None):
     mistakes = (OSError, MemoryError)
     try:
         from .._utils.checks import InputError
+        from .._utils.extras import MissingDependencyError
 
-        mistakes = (InputError, OSError, MemoryError)
+        mistakes = (InputError, MissingDependencyError, OSError, MemoryError)
         parser = build_parser()
         args = parser.parse_args(argv)
         if args.command is None:

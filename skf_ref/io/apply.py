@@ -29,6 +29,7 @@ from .._utils.checks import (
     check_real,
     describe,
 )
+from .._utils.extras import optional
 from ..method.reconstruct import METHODS, SMOOTHERS, reconstruct
 from ..method.tuning import choose_priors
 
@@ -84,7 +85,7 @@ def _average_reference_projector(info):
 
 def _checked_reference(evoked):
     """The evoked (a copy) with an average-reference projector, or an error saying why not."""
-    import mne
+    mne = optional("mne", "mne", "apply_skf")
     from mne.proj import make_eeg_average_ref_proj
 
     if _average_reference_projector(evoked.info):
@@ -113,7 +114,7 @@ def _checked_reference(evoked):
 
 def _noise_covariance(noise_cov, evoked):
     """An ``mne.Covariance`` from a Covariance, a noise standard deviation or "baseline"."""
-    import mne
+    mne = optional("mne", "mne", "apply_skf")
 
     if isinstance(noise_cov, mne.Covariance):
         return noise_cov
@@ -145,7 +146,7 @@ def _noise_covariance(noise_cov, evoked):
 
 
 def _common_channels(evoked, forward, covariance):
-    import mne
+    mne = optional("mne", "mne", "apply_skf")
 
     eeg = [evoked.ch_names[i] for i in mne.pick_types(evoked.info, eeg=True, exclude="bads")]
     in_forward = set(forward["sol"]["row_names"]) - set(forward["info"]["bads"])
@@ -177,7 +178,7 @@ def prepare(evoked, forward, noise_cov):
     -------
     WhitenedProblem
     """
-    import mne
+    mne = optional("mne", "mne", "apply_skf")
     from mne.cov import compute_whitener
 
     if not isinstance(evoked, mne.Evoked):

@@ -34,6 +34,7 @@ import numpy as np
 
 from .._utils.atomic_files import atomic_path
 from .._utils.checks import InputError, check_array
+from .._utils.extras import optional
 
 __all__ = [
     "LeadField",
@@ -204,7 +205,7 @@ def read_leadfield(path, *, key=None):
 
 
 def _forward(path):
-    import mne
+    mne = optional("mne", "mne", "reading an MNE forward (-fwd.fif)")
 
     with _reading(path, "an MNE forward solution"):
         forward = mne.read_forward_solution(path, verbose=False)
@@ -276,7 +277,7 @@ def _csv(path):
 
 
 def _mne_evoked(path, name, condition):
-    import mne
+    mne = optional("mne", "mne", "reading an MNE evoked (-ave.fif)")
 
     if name.endswith(("-ave.fif", "_ave.fif", "-ave.fif.gz")):
         with _reading(path, "MNE evoked data"):

@@ -14,6 +14,7 @@ The class follows the source space (surface, volume or discrete, mixed) and what
 import numpy as np
 
 from .._utils.checks import InputError, check_choice, check_real
+from .._utils.extras import optional
 
 __all__ = ["KINDS", "make_stc"]
 
@@ -54,7 +55,7 @@ def make_stc(reconstruction, src, tmin, tstep, subject=None, kind="amplitude"):
     mne.SourceEstimate or mne.VolSourceEstimate or mne.MixedSourceEstimate or vector kin
         Data (n_positions, n_times), or (n_positions, 3, n_times) for ``"vector"``.
     """
-    import mne
+    mne = optional("mne", "mne", "make_stc")
 
     check_choice("kind", kind, KINDS)
     if not isinstance(src, mne.SourceSpaces):

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .._utils.checks import InputError, check_choice, check_int
+from .._utils.extras import optional
 from ..method.paths.spectral_rows import NAMES
 
 __all__ = ["BLOCK_BYTES", "WRITE_BEHIND_BYTES", "to_dask", "to_zarr"]
@@ -33,17 +34,6 @@ def _rows_per_block(reconstruction, chunks):
     if chunks is None:
         return max(1, BLOCK_BYTES // (8 * reconstruction.n_times))
     return check_int("chunks", chunks, minimum=1)
-
-
-def _optional(module, extra):
-    import importlib
-
-    try:
-        return importlib.import_module(module)
-    except ImportError as err:
-        raise InputError(
-            f"{module} is not installed: pip install 'skf_ref[{extra}]' (or pip install {module})"
-        ) from err
 
 
 def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
@@ -72,7 +62,7 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
     zarr.Group
         The store, opened for reading; its attributes hold the reconstruction's settings.
     """
-    zarr = _optional("zarr", "zarr")
+    zarr = optional("zarr", "zarr", "to_zarr")
     path = Path(path)
     names = [check_choice("arrays", name, NAMES) for name in arrays]
     if not names:
@@ -143,7 +133,7 @@ def to_dask(reconstruction, name="z", chunks=None):
     -------
     dask.array.Array, shape (n_sources, n_times)
     """
-    da = _optional("dask.array", "dask")
+    da = optional("dask.array", "dask", "to_dask")
     import dask
 
     check_choice("name", name, NAMES)

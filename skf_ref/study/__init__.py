@@ -8,6 +8,7 @@
 - :mod:`.baselines`: MNE-Python's inverse methods on the same heads and data;
 - :mod:`.demo`: what ``skf-ref demo`` runs.
 
-The study imports the method and MNE-Python (the ``study`` extra); nothing below it imports
-the study.
+The study imports the method and needs MNE-Python, nibabel, joblib, tqdm and filelock (the
+``study`` extra: its head models and its sweeps say so when one is missing); nothing below it
+imports the study.
 """

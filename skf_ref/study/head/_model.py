@@ -16,7 +16,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..._utils.checks import InputError, check_array
+from ..._utils.extras import require
 from ...method.result import readonly
+
+require(("mne", "nibabel", "filelock"), "study", "skf_ref's head models")
 
 __all__ = ["CONDUCTORS", "SOURCE_SPACES", "Anatomy", "HeadModel", "apply_affine", "sensors"]
 

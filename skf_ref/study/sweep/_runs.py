@@ -9,6 +9,7 @@ import signal
 import sys
 
 from ..._utils.checks import InputError, check_int
+from ..._utils.extras import require
 from ..._utils.provenance import blas_threads, package_versions
 from ._grid import AXES, GROUP, check_grid, row_key, smoother_label
 from ._results import ResultsFile, read_results
@@ -247,6 +248,7 @@ def run_sweep(
     pandas.DataFrame
         Every row of the results file, the new ones included.
     """
+    require(("joblib", "tqdm", "filelock"), "study", "run_sweep")
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm
 
