@@ -40,7 +40,7 @@ def _suspect(name):
 
 
 def _long_csv(path, outputs):
-    """Their outputs as the long table of skf_ref.comparison."""
+    """Their outputs as the long table of skf_ref.conformance.compare."""
     with open(path, "w", newline="") as stream:
         writer = csv.writer(stream)
         writer.writerow(["output", "source", "step", "value"])
