@@ -56,7 +56,9 @@ def test_a_noise_level_equals_the_average_referenced_arrays(problem):
     # model as R = sigma^2 I on projected data (the constant direction carries nothing)
     setup, evoked, _ = problem
     sigma = 1e-6
-    stc, rec = apply_skf(evoked, setup["forward"], sigma, return_reconstruction=True, **SETTINGS)
+    stc, rec = apply_skf(
+        evoked, setup["forward"], noise_std=sigma, return_reconstruction=True, **SETTINGS
+    )
     L, Y = setup["forward"]["sol"]["data"], evoked.data
     arrays = reconstruct(
         L - L.mean(axis=0),
@@ -99,8 +101,10 @@ def test_data_referenced_without_a_projector_are_given_one(problem):
     setup, evoked, cov = problem
     direct = evoked.copy().del_proj().set_eeg_reference("average", verbose=False)
     assert direct.info["custom_ref_applied"]
-    with_projector = apply_skf(evoked, setup["forward"], 1e-6).data
-    assert relative(apply_skf(direct, setup["forward"], 1e-6).data, with_projector) < 1e-9
+    with_projector = apply_skf(evoked, setup["forward"], noise_std=1e-6).data
+    assert (
+        relative(apply_skf(direct, setup["forward"], noise_std=1e-6).data, with_projector) < 1e-9
+    )
 
 
 def test_fixed_orientation_localizes_a_noise_free_source_exactly(mne_setup):
@@ -122,7 +126,7 @@ def test_fixed_orientation_localizes_a_noise_free_source_exactly(mne_setup):
             forward["sol"]["data"][:, [target]] * 1e-8, mne_setup["info"], verbose=False
         )
         evoked.set_eeg_reference("average", projection=True, verbose=False)
-        stc = apply_skf(evoked, forward, 1e-9)
+        stc = apply_skf(evoked, forward, noise_std=1e-9)
         assert np.argmax(np.abs(stc.data[:, 0])) == target
         assert stc.data[target, 0] > 0  # signed: a positive source gives a positive z
 
@@ -183,7 +187,9 @@ def test_baseline_noise(mne_setup):
         (dict(evoked=np.zeros((64, 10))), InputTypeError, "evoked must be an mne.Evoked"),
         (dict(forward="fwd.fif"), InputTypeError, "forward must be an mne.Forward"),
         (dict(noise_cov="diag"), InputError, r"noise_cov must be one of \['baseline'\]"),
-        (dict(noise_cov=-1.0), InputError, "noise_cov must be > 0"),
+        (dict(noise_cov=None, noise_std=-1.0), InputError, "noise_std must be > 0"),
+        (dict(noise_std=1e-6), InputError, "give exactly one of noise_cov .* and noise_std"),
+        (dict(noise_cov=None), InputError, "give exactly one of noise_cov .* and noise_std"),
         (dict(noise_cov=[1.0]), InputTypeError, "noise_cov must be an mne.Covariance"),
         (dict(pick_ori="normal"), InputError, r"pick_ori must be one of \[None, 'vector'\]"),
         (dict(exponent=-1), InputError, "exponent must be >= 0"),
@@ -200,10 +206,10 @@ def test_references_the_forward_cannot_be_given(problem):
     setup, evoked, cov = problem
     mastoid = evoked.copy().del_proj().set_eeg_reference(["P9", "P10"], verbose=False)
     with pytest.raises(InputError, match="custom EEG reference other than the average"):
-        apply_skf(mastoid, setup["forward"], 1e-6)
+        apply_skf(mastoid, setup["forward"], noise_std=1e-6)
     raw_reference = evoked.copy().del_proj()
     with pytest.raises(InputError, match="neither an average-reference projector"):
-        apply_skf(raw_reference, setup["forward"], 1e-6)
+        apply_skf(raw_reference, setup["forward"], noise_std=1e-6)
 
 
 def test_no_common_channel_and_nan(problem):
@@ -212,11 +218,11 @@ def test_no_common_channel_and_nan(problem):
     info = mne.create_info([f"X{name}" for name in evoked.ch_names], 1000.0, "eeg")
     renamed = mne.EvokedArray(evoked.data, info, verbose=False)
     with pytest.raises(InputError, match=r"no EEG channel is common .* e.g. \['XFp1'"):
-        apply_skf(renamed, setup["forward"], 1e-6)
+        apply_skf(renamed, setup["forward"], noise_std=1e-6)
     broken = evoked.copy()
     broken.data[3, 7] = np.nan
     with pytest.raises(InputError, match="evoked.data contains NaN"):
-        apply_skf(broken, setup["forward"], 1e-6)
+        apply_skf(broken, setup["forward"], noise_std=1e-6)
 
 
 def test_to_stc_from_arrays(mne_setup, problem):
@@ -224,8 +230,16 @@ def test_to_stc_from_arrays(mne_setup, problem):
     stc, rec = apply_skf(evoked, setup["forward"], cov, return_reconstruction=True)
     again = rec.to_stc(setup["forward"]["src"], evoked.times[0], 1e-3)
     np.testing.assert_array_equal(again.data, stc.data)
-    with pytest.raises(InputError, match="kind='z' needs fixed orientation"):
-        rec.to_stc(setup["forward"]["src"], 0.0, 1e-3, kind="z")
+    vector = rec.to_stc(setup["forward"]["src"], evoked.times[0], 1e-3, pick_ori="vector")
+    np.testing.assert_allclose(np.linalg.norm(vector.data, axis=1), stc.data, rtol=1e-12)
+    with pytest.warns(FutureWarning, match="kind= is now pick_ori="):  # the 0.2 spelling
+        old = rec.to_stc(setup["forward"]["src"], evoked.times[0], 1e-3, kind="amplitude")
+    np.testing.assert_array_equal(old.data, stc.data)
+    fixed = reconstruct(np.eye(4, 1254) + 1, np.ones((4, 2)), noise_std=1, theta0=1, q=1)
+    with pytest.raises(InputError, match="pick_ori='vector' needs free orientation"):
+        fixed.to_stc(setup["forward"]["src"], 0.0, 1e-3, pick_ori="vector")
+    with pytest.raises(InputError, match="pick_ori must be one of"):
+        rec.to_stc(setup["forward"]["src"], 0.0, 1e-3, pick_ori="normal")
     with pytest.raises(InputError, match="has 1254 positions, so it needs 1254"):
         reconstruct(np.eye(4, 10) + 1, np.ones((4, 2)), noise_std=1, theta0=1, q=1).to_stc(
             setup["forward"]["src"], 0.0, 1e-3

@@ -92,8 +92,8 @@ def test_mne_files_round_trip(tmp_path, mne_setup):
     assert forward.ch_names == mne_setup["info"].ch_names
     np.testing.assert_allclose(forward.positions, mne_setup["positions"], atol=1e-6)
     # the estimate from the files equals the one from the objects in memory
-    from_files = apply_skf(read, forward.forward, 1e-6).data
-    in_memory = apply_skf(evoked, mne_setup["forward"], 1e-6).data
+    from_files = apply_skf(read, forward.forward, noise_std=1e-6).data
+    in_memory = apply_skf(evoked, mne_setup["forward"], noise_std=1e-6).data
     np.testing.assert_allclose(from_files, in_memory, rtol=1e-4)  # float32 storage
 
 
@@ -154,7 +154,7 @@ def test_written_results(tmp_path, mne_setup):
     with pytest.raises(InputError, match="written to .npz"):
         write_reconstruction(tmp_path / "r.csv", rec)
     evoked = mne_setup["make_epochs"](target=300, seed=5).average()
-    stc = apply_skf(evoked, mne_setup["forward"], 1e-6)
+    stc = apply_skf(evoked, mne_setup["forward"], noise_std=1e-6)
     for name in ("est.stc", "est.h5"):
         (written,) = write_stc(tmp_path / name, stc)
         again = mne.read_source_estimate(written)

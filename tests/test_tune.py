@@ -219,7 +219,7 @@ def test_a_fixed_snr_and_auto_everywhere(mne_setup):
         stc, rec = skf_ref.apply_skf(
             epochs.average(),
             mne_setup["forward"],
-            1e-6,
+            noise_std=1e-6,
             pm_snr_db="auto",
             ep_snr_db="auto",
             return_reconstruction=True,

@@ -3,7 +3,7 @@
 import argparse
 import re
 
-from .._utils.checks import InputError, check_int, check_real
+from .._utils.checks import MAX_DB, InputError, check_int, check_real
 
 __all__ = [
     "Parser",
@@ -68,7 +68,7 @@ def _typed(check):
     return parse
 
 
-def db(maximum=300.0, auto=False):
+def db(maximum=MAX_DB, auto=False):
     """A level in dB: finite, within +-``maximum`` (10**(dB/10) far from overflow).
 
     With ``auto``, the word "auto" is accepted too (priors chosen by the data).

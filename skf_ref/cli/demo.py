@@ -5,6 +5,7 @@ from pathlib import Path
 
 from .._utils.checks import InputError
 from ..method.settings import RECOMMENDED_SETTING
+from ..study.sizes import DEFAULT_POSITIONS, SCENARIO_MIN_POSITIONS
 from ._args import add_skf_options, db, integer
 
 __all__ = ["add_parser", "run"]
@@ -54,9 +55,9 @@ def add_parser(subparsers):
     )
     demo.add_argument(
         "--positions",
-        type=integer(minimum=420),
+        type=integer(minimum=SCENARIO_MIN_POSITIONS),
         help="source positions requested of the sphere's volume grid, which holds the "
-        "nearest count it can (default: 3000 with --source-space volume)",
+        f"nearest count it can (default: {DEFAULT_POSITIONS} with --source-space volume)",
     )
     demo.add_argument(
         "--head",

@@ -138,15 +138,16 @@ def _mne_route(args):
         except Exception as err:  # MNE's reader raises several types for a bad file
             raise InputError(f"argument --noise-cov: {args.noise_cov}: {err}") from err
     else:
-        noise_cov = "baseline" if args.baseline else args.noise_std
+        noise_cov = "baseline" if args.baseline else None
     stc, rec = apply_skf(
         recording.evoked,
         forward,
         noise_cov,
+        noise_std=args.noise_std,
         pm_snr_db=args.pm_snr_db,
         ep_snr_db=args.ep_snr_db,
         exponent=args.exponent,
-        smoother=None if args.smoother == "none" else args.smoother,
+        smoother=args.smoother,
         pick_ori=None if args.pick_ori == "none" else args.pick_ori,
         method=args.method,
         return_reconstruction=True,

@@ -5,6 +5,7 @@ import sys
 from pathlib import Path
 
 from .._utils.checks import InputError
+from ..study.sizes import DEFAULT_POSITIONS, SCENARIO_MIN_POSITIONS
 from ._args import db, integer, nonnegative
 
 __all__ = ["add_parser", "run"]
@@ -64,7 +65,10 @@ def add_parser(subparsers):
         "--seeds", type=integer(minimum=1), default=10, help="noise seeds 0 .. SEEDS-1"
     )
     sweep.add_argument(
-        "--positions", type=integer(minimum=420), default=3000, help="source positions requested"
+        "--positions",
+        type=integer(minimum=SCENARIO_MIN_POSITIONS),
+        default=DEFAULT_POSITIONS,
+        help="source positions requested",
     )
     sweep.add_argument("--montage", default="biosemi64", help="MNE built-in montage")
     sweep.add_argument("--quiet", action="store_true", help="no progress bar")

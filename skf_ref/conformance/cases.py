@@ -4,6 +4,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..method.outputs import OUTPUTS
 from ..method.priors import priors_from_snr
 from ..method.reconstruct import reconstruct
 from ..method.result import readonly
@@ -31,7 +32,6 @@ CONFORMANCE_VERSION = 1
 #: precision (float32, eps 6e-8) should compare with 1e-4.
 TOLERANCE = 1e-6
 INPUTS = ("L", "Y", "noise_cov", "theta0", "q", "transition", "exponent", "smoother")
-OUTPUTS = ("z", "z_filtered", "x", "x_filtered", "weights", "log_likelihood")
 #: What some cases hold besides their inputs and outputs (see :mod:`skf_ref.conformance`).
 EXTRAS = (
     "pm_snr_db",

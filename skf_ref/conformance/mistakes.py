@@ -15,14 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..method.model import StateSpaceModel
+from ..method.outputs import ARRAYS
 from ..method.paths import dense
 from ..method.priors import CONVENTIONS, priors_from_snr
 from ..method.result import Reconstruction
 from ..method.standardization import inverse_sqrt, raw_weights, standardize
 
 __all__ = ["SUSPECTS", "Suspect"]
-
-_ARRAYS = ("z", "z_filtered", "x", "x_filtered", "weights")
 
 
 @dataclass(frozen=True)
@@ -68,7 +67,7 @@ def _outputs(filtered, model, case, smoother=None):
         exponent=case.inputs["exponent"],
         method="suspect",
     )
-    return {**{name: getattr(rec, name) for name in _ARRAYS}, "log_likelihood": rec.log_likelihood}
+    return {**{name: getattr(rec, name) for name in ARRAYS}, "log_likelihood": rec.log_likelihood}
 
 
 def _filtered(case, **changes):
@@ -98,7 +97,7 @@ def _posterior_weights(f):
 def transposed(case):
     """The outputs as (n_times, n_sources): time-major, as filters compute them inside."""
     return {
-        name: np.transpose(value) for name, value in case.expected.items() if name in _ARRAYS
+        name: np.transpose(value) for name, value in case.expected.items() if name in ARRAYS
     } | {"log_likelihood": case.expected["log_likelihood"]}
 
 

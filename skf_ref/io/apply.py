@@ -17,6 +17,7 @@ estimate, in three steps (:func:`prepare`, then :func:`skf_ref.reconstruct`, the
    whatever units the files use, and the noise covariance of the whitened data is ``I``.
 """
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,13 +31,13 @@ from .._utils.checks import (
     describe,
 )
 from .._utils.extras import optional
-from ..method.reconstruct import METHODS, SMOOTHERS, reconstruct
+from .._utils.log import caller_stacklevel
+from ..method.reconstruct import METHODS, check_smoother, reconstruct
 from ..method.tuning import choose_priors
+from .stc import PICK_ORIS
 
 __all__ = ["PICK_ORIS", "WhitenedProblem", "apply_skf", "prepare"]
 
-#: Orientations :func:`apply_skf` can return (MNE's names): per-position norm, or vectors.
-PICK_ORIS = (None, "vector")
 # Average referenced: the channel mean is this small relative to the data at every time.
 _AVERAGE_REFERENCED_RTOL = 1e-9
 
@@ -112,10 +113,19 @@ def _checked_reference(evoked):
     )
 
 
-def _noise_covariance(noise_cov, evoked):
-    """An ``mne.Covariance`` from a Covariance, a noise standard deviation or "baseline"."""
+def _noise_covariance(noise_cov, noise_std, evoked):
+    """An ``mne.Covariance`` from a Covariance, "baseline" or a noise standard deviation."""
     mne = optional("mne", "mne", "apply_skf")
 
+    if (noise_cov is None) == (noise_std is None):
+        raise InputError(
+            "give exactly one of noise_cov (an mne.Covariance or 'baseline') and noise_std "
+            f"(a standard deviation in the evoked's units), got noise_cov={describe(noise_cov)}"
+            f" and noise_std={describe(noise_std)}"
+        )
+    if noise_std is not None:
+        sigma = check_real("noise_std", noise_std, positive=True)
+        return mne.make_ad_hoc_cov(evoked.info, std=dict(eeg=sigma), verbose=False)
     if isinstance(noise_cov, mne.Covariance):
         return noise_cov
     if isinstance(noise_cov, str):
@@ -138,11 +148,16 @@ def _noise_covariance(noise_cov, evoked):
         )
     if isinstance(noise_cov, bool) or not isinstance(noise_cov, (int, float, np.floating)):
         raise InputTypeError(
-            "noise_cov must be an mne.Covariance, a noise standard deviation (float) or "
-            f"'baseline', got {describe(noise_cov)}"
+            "noise_cov must be an mne.Covariance or 'baseline' (or give noise_std=), got "
+            f"{describe(noise_cov)}"
         )
-    sigma = check_real("noise_cov", noise_cov, positive=True)
-    return mne.make_ad_hoc_cov(evoked.info, std=dict(eeg=sigma), verbose=False)
+    warnings.warn(
+        "a number as noise_cov is a noise standard deviation: give it as noise_std= (the "
+        "keyword of reconstruct and the command line); noise_cov=<float> goes in 0.4",
+        FutureWarning,
+        stacklevel=caller_stacklevel(),
+    )
+    return _noise_covariance(None, noise_cov, evoked)
 
 
 def _common_channels(evoked, forward, covariance):
@@ -161,18 +176,20 @@ def _common_channels(evoked, forward, covariance):
     return common
 
 
-def prepare(evoked, forward, noise_cov):
+def prepare(evoked, forward, noise_cov=None, *, noise_std=None):
     """Pick, reference and whiten MNE objects for the SKF (steps 1-3 of the module).
 
     Parameters
     ----------
     evoked : mne.Evoked
     forward : mne.Forward
-    noise_cov : mne.Covariance or float or "baseline"
-        A covariance (e.g. ``mne.compute_covariance(epochs, tmax=0)``); a float, the noise
-        standard deviation of every EEG channel in the evoked's units (V); or
-        ``"baseline"``: estimated from the evoked's samples at t <= 0, which must be at
-        least as many as the channels.
+    noise_cov : mne.Covariance or "baseline", optional
+        A covariance (e.g. ``mne.compute_covariance(epochs, tmax=0)``) or ``"baseline"``:
+        estimated from the evoked's samples at t <= 0, which must be at least as many as the
+        channels. (A float here is read as ``noise_std``, with a ``FutureWarning``.)
+    noise_std : float, optional
+        Or: the noise standard deviation of every EEG channel in the evoked's units (V).
+        Give exactly one of the two.
 
     Returns
     -------
@@ -185,7 +202,7 @@ def prepare(evoked, forward, noise_cov):
         raise InputTypeError(f"evoked must be an mne.Evoked, got {describe(evoked)}")
     if not isinstance(forward, mne.Forward):
         raise InputTypeError(f"forward must be an mne.Forward, got {describe(forward)}")
-    covariance = _noise_covariance(noise_cov, evoked)
+    covariance = _noise_covariance(noise_cov, noise_std, evoked)
     ch_names = _common_channels(evoked, forward, covariance)
     evoked = evoked.copy().pick(ch_names)
     check_array("evoked.data", evoked.data, (len(ch_names), "n_times"))
@@ -215,8 +232,9 @@ def prepare(evoked, forward, noise_cov):
 def apply_skf(
     evoked,
     forward,
-    noise_cov,
+    noise_cov=None,
     *,
+    noise_std=None,
     pm_snr_db=0.0,
     ep_snr_db=20.0,
     exponent=0.5,
@@ -256,8 +274,9 @@ def apply_skf(
         EEG data; with an average-reference projector, or average referenced.
     forward : mne.Forward
         EEG forward solution; any channels it has beyond the evoked's are ignored.
-    noise_cov : mne.Covariance or float or "baseline"
-        See :func:`prepare`.
+    noise_cov : mne.Covariance or "baseline", optional
+    noise_std : float, optional
+        The noise: give exactly one (see :func:`prepare`).
     pm_snr_db, ep_snr_db : float or "auto"
         The priors' SNRs in dB (docs/model.md §4, "gain" convention, whitened lead field).
         ``"auto"``: chosen by the marginal likelihood of the data (:func:`skf_ref.method.tuning`,
@@ -280,9 +299,9 @@ def apply_skf(
         Only with ``return_reconstruction=True``.
     """
     check_choice("pick_ori", pick_ori, PICK_ORIS)
-    check_choice("smoother", smoother, SMOOTHERS)
+    smoother = check_smoother(smoother)
     check_choice("method", method, METHODS)
-    problem = prepare(evoked, forward, noise_cov)
+    problem = prepare(evoked, forward, noise_cov, noise_std=noise_std)
     if pick_ori == "vector" and problem.n_components == 1:
         raise InputError("pick_ori='vector' needs a free-orientation forward; this one is fixed")
     theta0, q, tuning = choose_priors(  # whitened: noise std 1
@@ -298,7 +317,6 @@ def apply_skf(
         smoother=smoother,
         method=method,
     )
-    rec.tuning = tuning
-    kind = "vector" if pick_ori == "vector" else "amplitude" if problem.n_components == 3 else "z"
-    stc = rec.to_stc(problem.forward["src"], problem.tmin, problem.tstep, kind=kind)
+    rec = rec.with_tuning(tuning)
+    stc = rec.to_stc(problem.forward["src"], problem.tmin, problem.tstep, pick_ori=pick_ori)
     return (stc, rec) if return_reconstruction else stc

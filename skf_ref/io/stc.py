@@ -1,25 +1,29 @@
 """Reconstructions as MNE source estimates: the way back to MNE-Python's tools.
 
-The class follows the source space (surface, volume or discrete, mixed) and what is shown:
+The class follows the source space (surface, volume or discrete, mixed) and ``pick_ori``, as
+MNE's ``apply_inverse`` names it:
 
-- ``"amplitude"``: the per-position amplitude (the norm of a position's three components for
-  free orientation, ``|z|`` for fixed): ``SourceEstimate`` / ``VolSourceEstimate`` /
-  ``MixedSourceEstimate``;
+- ``None``: for free orientation, the per-position amplitude (the norm of a position's three
+  components); for fixed orientation, the signed standardized estimate ``z``, one value per
+  position: ``SourceEstimate`` / ``VolSourceEstimate`` / ``MixedSourceEstimate``;
 - ``"vector"``: free orientation's three components in MNE's x, y, z (head coordinates):
-  ``VectorSourceEstimate`` / ``VolVectorSourceEstimate`` / ``MixedVectorSourceEstimate``;
-- ``"z"``: the signed standardized estimate of a fixed-orientation model, one value per
-  position, in the scalar class.
+  ``VectorSourceEstimate`` / ``VolVectorSourceEstimate`` / ``MixedVectorSourceEstimate``.
 """
+
+import warnings
 
 import numpy as np
 
 from .._utils.checks import InputError, check_choice, check_real
 from .._utils.extras import optional
+from .._utils.log import caller_stacklevel
 
-__all__ = ["KINDS", "make_stc"]
+__all__ = ["PICK_ORIS", "make_stc"]
 
-#: What a source estimate can show.
-KINDS = ("amplitude", "vector", "z")
+#: What a source estimate can show, in MNE's words (``pick_ori`` of ``apply_inverse``).
+PICK_ORIS = (None, "vector")
+#: The 0.2 spelling (``kind=``) of each, kept for one release.
+_KINDS = {"amplitude": None, "z": None, "vector": "vector"}
 
 _CLASSES = {
     ("surface", False): "SourceEstimate",
@@ -31,7 +35,7 @@ _CLASSES = {
 }
 
 
-def make_stc(reconstruction, src, tmin, tstep, subject=None, kind="amplitude"):
+def make_stc(reconstruction, src, tmin, tstep, subject=None, pick_ori=None, *, kind=None):
     """An MNE source estimate of a reconstruction on the source space it was computed on.
 
     Parameters
@@ -47,8 +51,11 @@ def make_stc(reconstruction, src, tmin, tstep, subject=None, kind="amplitude"):
         Time between samples, seconds (``1 / sfreq``).
     subject : str, optional
         Default: the source space's subject.
-    kind : {"amplitude", "vector", "z"}
+    pick_ori : {None, "vector"}
         See the module docstring.
+    kind : {"amplitude", "vector", "z"}
+        The 0.2 name of ``pick_ori`` (``"amplitude"`` and ``"z"`` are ``None``); it warns
+        and goes in 0.4.
 
     Returns
     -------
@@ -57,7 +64,16 @@ def make_stc(reconstruction, src, tmin, tstep, subject=None, kind="amplitude"):
     """
     mne = optional("mne", "mne", "make_stc")
 
-    check_choice("kind", kind, KINDS)
+    if kind is not None:
+        check_choice("kind", kind, tuple(_KINDS))
+        warnings.warn(
+            f"make_stc's kind= is now pick_ori= (MNE's name): kind={kind!r} is "
+            f"pick_ori={_KINDS[kind]!r}; kind goes in 0.4",
+            FutureWarning,
+            stacklevel=caller_stacklevel(),
+        )
+        pick_ori = _KINDS[kind]
+    check_choice("pick_ori", pick_ori, PICK_ORIS)
     if not isinstance(src, mne.SourceSpaces):
         raise InputError(f"src must be an mne.SourceSpaces, got {type(src).__name__}")
     tmin, tstep = check_real("tmin", tmin), check_real("tstep", tstep, positive=True)
@@ -70,20 +86,18 @@ def make_stc(reconstruction, src, tmin, tstep, subject=None, kind="amplitude"):
             f"has {n_positions} positions, so it needs {n_positions} (fixed orientation) "
             f"or {3 * n_positions} (free orientation)"
         )
-    if kind == "amplitude":
-        data = reconstruction.amplitude(components)
-    elif components == 3 and kind == "vector":
-        data = reconstruction.z.reshape(n_positions, 3, -1)
-    elif components == 1 and kind == "z":
-        data = reconstruction.z
-    else:
-        orientation = "free" if components == 3 else "fixed"
+    if pick_ori == "vector" and components == 1:
         raise InputError(
-            f"kind={kind!r} needs {'free' if kind == 'vector' else 'fixed'} orientation; "
-            f"this reconstruction has {orientation} orientation: use kind='amplitude'"
-            + (" or 'vector'" if components == 3 else " or 'z'")
+            "pick_ori='vector' needs free orientation (three columns per position); this "
+            "reconstruction has fixed orientation: use pick_ori=None"
         )
+    if pick_ori == "vector":
+        data = reconstruction.z.reshape(n_positions, 3, -1)
+    elif components == 3:
+        data = reconstruction.amplitude(3)
+    else:
+        data = reconstruction.z
     src_kind = "volume" if src.kind == "discrete" else src.kind
-    stc_class = getattr(mne, _CLASSES[src_kind, kind == "vector"])
+    stc_class = getattr(mne, _CLASSES[src_kind, pick_ori == "vector"])
     subject = subject if subject is not None else src[0].get("subject_his_id")
     return stc_class(np.array(data), vertices=vertices, tmin=tmin, tstep=tstep, subject=subject)

@@ -8,10 +8,28 @@ from .model import StateSpaceModel
 from .paths import dense, spectral
 from .paths import filterpy_skf as kalman
 
-__all__ = ["METHODS", "SMOOTHERS", "reconstruct"]
+__all__ = ["METHODS", "SMOOTHERS", "check_smoother", "reconstruct"]
 
 SMOOTHERS = (None, "rts-standardized", "rts-state")
 METHODS = ("auto", "filterpy", "dense", "spectral")
+
+
+def check_smoother(smoother):
+    """The smoother, with ``"none"`` (the command line's and the results tables' word) as None.
+
+    Examples
+    --------
+    >>> check_smoother("none") is None, check_smoother("rts-state")
+    (True, 'rts-state')
+    """
+    if isinstance(smoother, str) and smoother == "none":
+        return None
+    try:
+        return check_choice("smoother", smoother, SMOOTHERS)
+    except InputError:
+        raise InputError(
+            f"smoother must be one of {[*SMOOTHERS, 'none']!r}, got {smoother!r}"
+        ) from None
 
 
 def _check_memory(method, smoother, model, n_times, memory_limit):
@@ -87,7 +105,8 @@ def reconstruct(
     exponent : float
         Standardization exponent alpha of §2.2 eq. (7), >= 0. 0.5 is the original SKF.
     smoother : {None, "rts-standardized", "rts-state"}
-        ``"rts-standardized"`` is the paper's smoother over the standardized sequence;
+        None (or ``"none"``, as the command line and results tables write it): the filter
+        only. ``"rts-standardized"`` is the paper's smoother over the standardized sequence;
         ``"rts-state"`` the textbook RTS on the state, standardized afterwards
         (docs/model.md §3).
     method : {"auto", "filterpy", "dense", "spectral"}
@@ -133,7 +152,7 @@ def reconstruct(
     exponent = check_real("exponent", exponent, nonnegative=True)
     if memory_limit is not None:
         memory_limit = check_real("memory_limit", memory_limit, positive=True)
-    check_choice("smoother", smoother, SMOOTHERS)
+    smoother = check_smoother(smoother)
     check_choice("method", method, METHODS)
     problem = model.isotropic_problem()
     if method == "auto":

@@ -1,8 +1,13 @@
 """The result type every computational path returns, and the per-position amplitude."""
 
+import copy
+import warnings
+
 import numpy as np
 
 from .._utils.checks import InputError, check_array, check_choice, check_int
+from .._utils.log import caller_stacklevel
+from .outputs import ARRAYS
 from .standardization import overflow_cause, restandardize
 
 __all__ = ["Reconstruction", "amplitude_from_components", "readonly"]
@@ -97,9 +102,12 @@ class Reconstruction:
         The model's ``P_0``, ``Q`` and ``A`` as given (a scalar ``c`` means ``c I``).
     tuning : skf_ref.method.tuning.TuneResult or None
         When the priors were chosen by the data (``"auto"``), how.
+
+    A reconstruction never changes once made: its attributes cannot be set, and
+    :meth:`with_tuning` returns a new one.
     """
 
-    _ARRAYS = ("z", "x", "z_filtered", "x_filtered", "weights")
+    _ARRAYS = ARRAYS
 
     def __init__(
         self,
@@ -120,6 +128,7 @@ class Reconstruction:
         transition=1.0,
         diagnose=None,
         rows=None,
+        tuning=None,
     ):
         self._arrays = dict(
             z=z, x=x, z_filtered=z_filtered, x_filtered=x_filtered, weights=weights
@@ -138,7 +147,32 @@ class Reconstruction:
         self.n_sources, self.n_times = int(n_sources), int(n_times)
         self.exponent, self.smoother, self.method = float(exponent), smoother, method
         self.theta0, self.q, self.transition = theta0, q, transition
-        self.tuning = None
+        self.tuning = tuning
+        self._frozen = True
+
+    def __setattr__(self, name, value):
+        if getattr(self, "_frozen", False):
+            raise AttributeError(
+                f"a Reconstruction is read-only: {name!r} cannot be set (with_tuning gives a "
+                "copy with the priors' tuning)"
+            )
+        super().__setattr__(name, value)
+
+    def with_tuning(self, tuning):
+        """The same reconstruction, recording how the data chose its priors.
+
+        Parameters
+        ----------
+        tuning : skf_ref.method.tuning.TuneResult or None
+
+        Returns
+        -------
+        Reconstruction
+            A new object; the arrays are shared (read-only), this one is unchanged.
+        """
+        other = copy.copy(self)
+        object.__setattr__(other, "tuning", tuning)
+        return other
 
     @classmethod
     def from_filter(cls, filtered, smoother, rts, *, model, exponent, method):
@@ -310,7 +344,7 @@ class Reconstruction:
             f"{self.method}, exponent {self.exponent:g}, {smoother}>"
         )
 
-    def to_stc(self, src, tmin, tstep, subject=None, kind="amplitude"):
+    def to_stc(self, src, tmin, tstep, subject=None, pick_ori=None, *, kind=None):
         """This reconstruction as an MNE source estimate (see :func:`skf_ref.io.stc.make_stc`).
 
         Parameters
@@ -321,9 +355,11 @@ class Reconstruction:
             First sample's time and the sampling interval, seconds.
         subject : str, optional
             Default: the source space's subject.
+        pick_ori : {None, "vector"}
+            ``None``: per-position amplitude (free orientation) or the signed ``z`` (fixed);
+            ``"vector"``: free orientation's three components.
         kind : {"amplitude", "vector", "z"}
-            Per-position amplitude, free orientation's components, or fixed orientation's
-            signed ``z``.
+            The 0.2 name of ``pick_ori``; it warns and goes in 0.4.
 
         Returns
         -------
@@ -331,21 +367,23 @@ class Reconstruction:
         """
         from ..io.stc import make_stc
 
-        return make_stc(self, src, tmin, tstep, subject, kind)
+        return make_stc(self, src, tmin, tstep, subject, pick_ori, kind=kind)
 
-    def amplitude(self, components=1, *, filtered=False):
+    def amplitude(self, n_components=1, *, filtered=False, components=None):
         """Per-position amplitude: the Euclidean norm of each position's components of z.
 
         Parameters
         ----------
-        components : {1, 2, 3}
+        n_components : {1, 2, 3}
             Columns per position: 3 for free orientation (MNE's x, y, z order), 1 for fixed.
         filtered : bool
             Use ``z_filtered`` instead of ``z``.
+        components : {1, 2, 3}
+            The 0.2 name of ``n_components``; it warns and goes in 0.4.
 
         Returns
         -------
-        ndarray, shape (n_sources // components, n_times)
+        ndarray, shape (n_sources // n_components, n_times)
 
         Examples
         --------
@@ -356,9 +394,16 @@ class Reconstruction:
         >>> r.amplitude(3).ravel().tolist()
         [5.0, 1.0]
         """
-        components = check_int("components", components, minimum=1, maximum=3)
-        if self.n_sources % components:
-            raise InputError(
-                f"components must divide n_sources={self.n_sources}, got {components!r}"
+        if components is not None:
+            warnings.warn(
+                "amplitude's components= is now n_components=; components goes in 0.4",
+                FutureWarning,
+                stacklevel=caller_stacklevel(),
             )
-        return amplitude_from_components(self.z_filtered if filtered else self.z, components)
+            n_components = components
+        n_components = check_int("n_components", n_components, minimum=1, maximum=3)
+        if self.n_sources % n_components:
+            raise InputError(
+                f"n_components must divide n_sources={self.n_sources}, got {n_components!r}"
+            )
+        return amplitude_from_components(self.z_filtered if filtered else self.z, n_components)

@@ -27,8 +27,9 @@ import numpy as np
 from .._utils.atomic_files import atomic_path
 from .._utils.checks import InputError, check_choice, check_int
 from .._utils.log import logger, progress, verbosity
-from ..method.reconstruct import SMOOTHERS
+from ..method.reconstruct import check_smoother
 from ..method.settings import PAPER_SETTING
+from .sizes import DEFAULT_POSITIONS
 
 __all__ = ["DATA", "HEADS", "OUTPUTS", "Demo", "run_demo"]
 
@@ -142,7 +143,7 @@ def run_demo(
     from .scenario import p20n20_scenario, simulate
 
     check_choice("head", head, HEADS)
-    check_choice("smoother", smoother, SMOOTHERS)
+    smoother = check_smoother(smoother)
     seed = check_int("seed", seed, minimum=0)
     out = _output_folder(out)
     with verbosity(verbose):
@@ -158,12 +159,12 @@ def run_demo(
                 "source_space='volume'); the other source spaces have fixed spacings"
             )
         if testing is None and source_space == "volume":
-            _check_size(n_positions or 3000, montage)
+            _check_size(n_positions or DEFAULT_POSITIONS, montage)
         with progress("head model"):
             model = make_head(
                 "sphere" if testing is None else "bem",
                 source_space,
-                n_positions=n_positions or 3000,
+                n_positions=n_positions or DEFAULT_POSITIONS,
                 montage=montage,
                 testing_data=testing,
                 cache_dir=cache_dir,

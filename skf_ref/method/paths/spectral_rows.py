@@ -16,6 +16,7 @@ import numpy as np
 from scipy.linalg import blas
 
 from ..._utils import memory
+from ..outputs import ARRAYS
 from ..standardization import standardization_weights, standardized_means
 from .singular_basis import backward, map_threads
 
@@ -31,7 +32,7 @@ __all__ = [
 ]
 
 #: The outputs a reconstruction holds.
-NAMES = ("z", "x", "z_filtered", "x_filtered", "weights")
+NAMES = ARRAYS  # the outputs it computes rows of
 #: Temporaries of at most this size when forming (T, n) outputs: small enough for the
 #: allocator to reuse them (a fresh large allocation costs a page fault per 4 KiB) and for
 #: a block to stay in cache between the steps that touch it.

@@ -18,6 +18,7 @@ Whether a head can hold the scenario is checked where the two meet, in
 :func:`skf_ref.study.scenario.simulate`.
 """
 
+from ..sizes import DEFAULT_POSITIONS
 from ._bem import (
     LABELS,
     SUBJECT_MONTAGE,
@@ -91,7 +92,7 @@ def make_head(
     conductor="sphere",
     source_space="volume",
     *,
-    n_positions=3000,
+    n_positions=DEFAULT_POSITIONS,
     montage="biosemi64",
     testing_data=None,
     cache_dir=None,

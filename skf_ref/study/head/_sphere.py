@@ -43,6 +43,7 @@ import numpy as np
 
 from ..._utils.checks import InputError, check_int
 from ...method.result import readonly
+from ..sizes import DEFAULT_POSITIONS
 from ._model import Anatomy, HeadModel, apply_affine, finish_forward, sensors
 
 __all__ = [
@@ -79,7 +80,7 @@ THALAMUS_MNI_MM = ((-12.0, -19.0, 7.0), (12.0, -19.0, 7.0))
 THALAMUS_RADIUS_MM = 12.4
 
 
-def make_head_model(n_positions=3000, montage="biosemi64", seed=None):
+def make_head_model(n_positions=DEFAULT_POSITIONS, montage="biosemi64", seed=None):
     """Build the spherical EEG head model with a grid of about `n_positions` positions.
 
     Parameters
@@ -113,7 +114,7 @@ def make_head_model(n_positions=3000, montage="biosemi64", seed=None):
     return _fresh(_build_head(n_positions, montage, seed))
 
 
-def make_sphere_head(source_space="volume", n_positions=3000, montage="biosemi64"):
+def make_sphere_head(source_space="volume", n_positions=DEFAULT_POSITIONS, montage="biosemi64"):
     """The sphere head with either source space (see the module docstring).
 
     Parameters
@@ -158,7 +159,7 @@ def check_montage(montage):
     return montage
 
 
-def grid_size(n_positions=3000, seed=None):
+def grid_size(n_positions=DEFAULT_POSITIONS, seed=None):
     """The number of positions ``make_head_model(n_positions, seed=seed)`` holds, cheaply.
 
     The lattice count nearest to the request (see the module docstring); no forward model
@@ -173,7 +174,7 @@ def grid_size(n_positions=3000, seed=None):
     return len(_grid_cells(n_positions, _offset(seed))[0])
 
 
-def required_memory(n_positions=3000, montage="biosemi64"):
+def required_memory(n_positions=DEFAULT_POSITIONS, montage="biosemi64"):
     """Bytes that building ``make_head_model(n_positions, montage)`` needs, about.
 
     MNE's forward computation peaked at 10-15 times the size of the lead field it returns

@@ -4,11 +4,12 @@ from ..._utils.checks import (
     InputError,
     InputTypeError,
     check_choice,
+    check_db,
     check_int,
     check_real,
     describe,
 )
-from ...method.reconstruct import SMOOTHERS
+from ...method.reconstruct import SMOOTHERS, check_smoother
 
 __all__ = ["AXES", "GROUP", "KEY", "check_grid", "paper_grid", "row_key", "smoother_label"]
 
@@ -19,7 +20,6 @@ GROUP = ("snr_db", "ep_snr_db", "pm_snr_db")
 #: Columns that identify a run in a results file.
 KEY = ("n_positions", "montage", *AXES)
 #: Largest |dB| of a noise level or prior SNR: 10**(dB/10) stays far from overflow.
-MAX_DB = 300.0
 
 
 def paper_grid(seeds=10):
@@ -96,15 +96,12 @@ def check_grid(grid):
 def _check_value(axis, value):
     name = f"grid[{axis!r}] values"
     if axis == "smoother":
-        return check_choice(name, value, SMOOTHERS)
+        return check_smoother(check_choice(name, value, (*SMOOTHERS, "none")))
     if axis == "seed":
         return check_int(name, value, minimum=0)
     if axis == "exponent":
         return check_real(name, value, nonnegative=True)
-    value = check_real(name, value)
-    if abs(value) > MAX_DB:
-        raise InputError(f"{name} must be within +-{MAX_DB:g} dB, got {value!r}")
-    return value
+    return check_db(name, value)
 
 
 def smoother_label(smoother):

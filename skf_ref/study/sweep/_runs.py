@@ -11,6 +11,7 @@ import sys
 from ..._utils.checks import InputError, check_int
 from ..._utils.extras import require
 from ..._utils.provenance import blas_threads, package_versions
+from ..sizes import DEFAULT_POSITIONS
 from ._grid import AXES, GROUP, check_grid, row_key, smoother_label
 from ._results import ResultsFile, read_results
 
@@ -39,7 +40,14 @@ def _head(n_positions, montage, head):
 
 
 def run_group(
-    snr_db, ep_snr_db, pm_snr_db, runs, n_positions=3000, montage="biosemi64", head=None, data=None
+    snr_db,
+    ep_snr_db,
+    pm_snr_db,
+    runs,
+    n_positions=DEFAULT_POSITIONS,
+    montage="biosemi64",
+    head=None,
+    data=None,
 ):
     """All runs that share a noise level and priors, on one prepared spectral model.
 
@@ -202,7 +210,7 @@ def run_sweep(
     out,
     n_jobs=1,
     *,
-    n_positions=3000,
+    n_positions=DEFAULT_POSITIONS,
     montage="biosemi64",
     backend=None,
     progress=True,
