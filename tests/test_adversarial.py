@@ -223,9 +223,9 @@ def test_sweep_arguments_are_checked(tmp_path):
     )
     for runs_per_task in (0, -1):
         with pytest.raises(InputError, match=f"runs_per_task must be >= 1, got {runs_per_task}"):
-            run_sweep(grid, tmp_path / "r.csv", runs_per_task=runs_per_task, progress=False)
-    with pytest.raises(InputError, match="pm_snr_db'] values must be within"):
-        run_sweep(grid | {"pm_snr_db": [4000.0]}, tmp_path / "r.csv", progress=False)
+            run_sweep(grid, tmp_path / "r.csv", runs_per_task=runs_per_task, verbose=False)
+    with pytest.raises(InputError, match="pm_snr_db'] values must be <= 300 dB"):
+        run_sweep(grid | {"pm_snr_db": [4000.0]}, tmp_path / "r.csv", verbose=False)
     assert not any(tmp_path.iterdir())
 
 

@@ -164,8 +164,8 @@ def test_sweep_on_a_local_cluster_of_processes(cluster, tmp_path):
         seed=[0, 1],
     )
     with joblib.parallel_config(backend="dask"):
-        remote = run_sweep(grid, tmp_path / "r.csv", n_jobs=2, progress=False, n_positions=500)
-    local = run_sweep(grid, tmp_path / "l.csv", progress=False, n_positions=500)
+        remote = run_sweep(grid, tmp_path / "r.csv", n_jobs=2, verbose=False, n_positions=500)
+    local = run_sweep(grid, tmp_path / "l.csv", verbose=False, n_positions=500)
     key = list(KEY)
     a = remote.sort_values(key).reset_index(drop=True)
     b = local.sort_values(key).reset_index(drop=True)

@@ -55,7 +55,7 @@ def small_grid(seeds=2):
 def test_bad_grids_are_rejected_before_any_work(tmp_path, change, match):
     out = tmp_path / "results.csv"
     with pytest.raises(ValueError, match=match):
-        run_sweep(small_grid() | change, out, progress=False, n_positions=POSITIONS)
+        run_sweep(small_grid() | change, out, verbose=False, n_positions=POSITIONS)
     assert not out.exists()
 
 
@@ -93,29 +93,29 @@ def test_batching_equals_running_seeds_one_by_one():
 
 def test_rows_are_tidy_and_a_rerun_adds_nothing(tmp_path):
     out = tmp_path / "results.csv"
-    table = run_sweep(small_grid(), out, progress=False, n_positions=POSITIONS)
+    table = run_sweep(small_grid(), out, verbose=False, n_positions=POSITIONS)
     assert len(table) == 16
     assert set(table["smoother"]) == {"none", "rts-standardized"}
     for column in ("numpy_version", "mne_version", "deep_error_mm", "separation", "theta0"):
         assert column in table.columns
     before = out.read_bytes()
-    again = run_sweep(small_grid(), out, progress=False, n_positions=POSITIONS)
+    again = run_sweep(small_grid(), out, verbose=False, n_positions=POSITIONS)
     assert out.read_bytes() == before and len(again) == 16
     # a larger grid adds only the new rows
-    bigger = run_sweep(small_grid(seeds=3), out, progress=False, n_positions=POSITIONS)
+    bigger = run_sweep(small_grid(seeds=3), out, verbose=False, n_positions=POSITIONS)
     assert len(bigger) == 24 and not bigger.duplicated(list(KEY)).any()
 
 
 def test_torn_last_line_is_dropped_on_resume(tmp_path):
     out = tmp_path / "results.csv"
-    run_sweep(small_grid(seeds=1), out, progress=False, n_positions=POSITIONS)
+    run_sweep(small_grid(seeds=1), out, verbose=False, n_positions=POSITIONS)
     with open(out, "ab") as f:
         f.write(b"480,biosemi64,20.0,0.0")  # a row cut short by a power loss
     torn = out.read_bytes()
     assert len(read_results(out)) == 8
     assert out.read_bytes() == torn  # reading never writes
     with pytest.warns(TornLineWarning, match="torn last line"):
-        table = run_sweep(small_grid(seeds=1), out, progress=False, n_positions=POSITIONS)
+        table = run_sweep(small_grid(seeds=1), out, verbose=False, n_positions=POSITIONS)
     assert len(table) == 8 and out.read_bytes().endswith(b"\n")
 
 
@@ -134,7 +134,7 @@ _KILLED_SWEEP = textwrap.dedent(
     import json, sys
     from skf_ref.study.sweep import run_sweep
     grid = json.loads(sys.argv[2])
-    run_sweep(grid, sys.argv[1], progress=False, n_positions=int(sys.argv[3]), runs_per_task=1)
+    run_sweep(grid, sys.argv[1], verbose=False, n_positions=int(sys.argv[3]), runs_per_task=1)
     """
 )
 
@@ -160,7 +160,7 @@ def test_resume_after_the_process_is_killed(tmp_path):
     partial = read_results(out)
     assert 0 < len(partial) < total, "the sweep must be killed part-way for this test to count"
     assert parsed_sizes == sorted(parsed_sizes)
-    table = run_sweep(KILL_GRID, out, n_jobs=2, progress=False, n_positions=POSITIONS)
+    table = run_sweep(KILL_GRID, out, n_jobs=2, verbose=False, n_positions=POSITIONS)
     assert len(table) == total
     assert not table.duplicated(list(KEY)).any()
     pd.testing.assert_frame_equal(table.iloc[: len(partial)], partial)
@@ -168,8 +168,8 @@ def test_resume_after_the_process_is_killed(tmp_path):
 
 def test_parquet_results_are_resumable(tmp_path):
     out = tmp_path / "results.parquet"
-    run_sweep(small_grid(seeds=1), out, progress=False, n_positions=POSITIONS)
-    table = run_sweep(small_grid(seeds=2), out, progress=False, n_positions=POSITIONS)
+    run_sweep(small_grid(seeds=1), out, verbose=False, n_positions=POSITIONS)
+    table = run_sweep(small_grid(seeds=2), out, verbose=False, n_positions=POSITIONS)
     assert len(table) == 16 and len(pd.read_parquet(out)) == 16
     assert not table.duplicated(list(KEY)).any()
 

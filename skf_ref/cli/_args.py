@@ -12,7 +12,6 @@ __all__ = [
     "integer",
     "nonnegative",
     "positive",
-    "progress",
     "report_tuning",
 ]
 
@@ -108,26 +107,6 @@ def integer(minimum=None, maximum=None):
         return check_int("value", value, minimum=minimum, maximum=maximum)
 
     return _typed(parse)
-
-
-def progress(args, text):
-    """A context manager printing ``text ...`` and the seconds it took, unless ``--quiet``."""
-    import contextlib
-    import sys
-    import time
-
-    @contextlib.contextmanager
-    def stage():
-        start = time.perf_counter()
-        if not args.quiet:
-            print(f"{text} ...", end="", file=sys.stderr, flush=True)
-        try:
-            yield
-        finally:
-            if not args.quiet:
-                print(f" {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
-
-    return stage()
 
 
 def report_tuning(args, tuning):

@@ -96,7 +96,7 @@ def run(args):
                 n_jobs=args.jobs,
                 n_positions=args.positions,
                 montage=args.montage,
-                progress=not args.quiet,
+                verbose=not args.quiet,
                 size_name="--positions",
             )
         except KeyboardInterrupt:

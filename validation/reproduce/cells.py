@@ -84,7 +84,7 @@ def _sweep(grids, path, head, data, n_jobs, progress):
     path.parent.mkdir(parents=True, exist_ok=True)
     for grid in grids:
         run_sweep(
-            grid, path, n_jobs=n_jobs, montage=MONTAGE, head=head, data=data, progress=progress
+            grid, path, n_jobs=n_jobs, montage=MONTAGE, head=head, data=data, verbose=progress
         )
     return sorted_rewrite(path)
 

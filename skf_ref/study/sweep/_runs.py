@@ -3,13 +3,16 @@
 import ctypes
 import ctypes.util
 import itertools
+import logging
 import math
 import multiprocessing
 import signal
 import sys
+import warnings
 
 from ..._utils.checks import InputError, check_int
 from ..._utils.extras import require
+from ..._utils.log import caller_stacklevel, logger, verbosity
 from ..._utils.provenance import blas_threads, package_versions
 from ..sizes import DEFAULT_POSITIONS
 from ._grid import AXES, GROUP, check_grid, row_key, smoother_label
@@ -213,7 +216,8 @@ def run_sweep(
     n_positions=DEFAULT_POSITIONS,
     montage="biosemi64",
     backend=None,
-    progress=True,
+    verbose=None,
+    progress=None,
     runs_per_task=24,
     size_name="n_positions",
     head=None,
@@ -235,8 +239,12 @@ def run_sweep(
     montage : str
     backend : str, optional
         joblib backend; None uses the caller's ``joblib.parallel_config`` (default loky).
+    verbose : bool or str or int or None
+        Show a tqdm progress bar (runs done of the grid) when the ``"skf_ref"`` log shows
+        INFO, as MNE's ``verbose``: None keeps the log's level (INFO unless set otherwise),
+        False hides the bar.
     progress : bool
-        Show a tqdm progress bar (runs done of the grid).
+        The 0.2 name of ``verbose``; it warns and goes in 0.4.
     runs_per_task : int
         Runs of one group handed to a worker at once: rows reach the file after each task,
         so this bounds what an interruption can lose; each task prepares its model once.
@@ -257,6 +265,15 @@ def run_sweep(
         Every row of the results file, the new ones included.
     """
     require(("joblib", "tqdm", "filelock"), "study", "run_sweep")
+    if progress is not None:
+        warnings.warn(
+            "run_sweep's progress= is now verbose= (as MNE names it); progress goes in 0.4",
+            FutureWarning,
+            stacklevel=caller_stacklevel(),
+        )
+        verbose = progress
+    with verbosity(verbose):
+        shown = logger.isEnabledFor(logging.INFO)
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm
 
@@ -289,7 +306,7 @@ def run_sweep(
             for group, runs in tasks
         )
         parallel = Parallel(n_jobs=n_jobs, backend=backend, return_as="generator_unordered")
-        bar = tqdm(total=total, initial=total - remaining, disable=not progress, unit="run")
+        bar = tqdm(total=total, initial=total - remaining, disable=not shown, unit="run")
         with bar:
             for rows in parallel(jobs):
                 results.add(rows)
