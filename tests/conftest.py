@@ -58,3 +58,27 @@ def mne_setup():
         peak=int(np.argmax(wave)),
         make_epochs=make_epochs,
     )
+
+
+# --- the command line, in this process ------------------------------------------------------
+
+
+@pytest.fixture
+def cli(capsys):
+    """Run ``skf-ref`` in this process: ``cli("demo", "--out", ...)`` returns its exit status,
+    standard output and error, and every warning it raised (a warning would be printed around
+    the command's output in a terminal). The console script itself is run in a subprocess by
+    a few tests of its own."""
+    import warnings
+    from types import SimpleNamespace
+
+    from skf_ref.cli import main
+
+    def run(*arguments):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            status = main(list(arguments))
+        out, err = capsys.readouterr()
+        return SimpleNamespace(returncode=status, stdout=out, stderr=err, warnings=caught)
+
+    return run

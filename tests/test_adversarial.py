@@ -301,11 +301,12 @@ def _cli(*arguments, timeout=120):
         (["sweep", "--positions", "4000000"], "--positions 4000000"),
     ],
 )
-def test_command_line_errors_are_one_line_with_no_file_left(tmp_path, arguments, message):
+def test_command_line_errors_are_one_line_with_no_file_left(cli, tmp_path, arguments, message):
     out = tmp_path / ("out.csv" if arguments[0] == "sweep" else "demo")
-    result = _cli(*arguments, "--out", str(out), "--quiet")
+    result = cli(*arguments, "--out", str(out), "--quiet")
     assert result.returncode == 2, result.stderr
     assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
+    assert not result.warnings, [str(w.message) for w in result.warnings]
     assert message in result.stderr
     assert not out.exists() or not any(out.iterdir())
 

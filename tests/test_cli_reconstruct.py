@@ -96,11 +96,11 @@ def _cli(*arguments):
         (["--leadfield", "L.npy", "--data", "Y.npy", "--out", "x.stc"], "array route writes"),
     ],
 )
-def test_bad_input_is_one_line_and_leaves_no_file(files, tmp_path, arguments, message):
+def test_bad_input_is_one_line_and_leaves_no_file(cli, files, tmp_path, arguments, message):
     arguments = [str(files / a) if a.endswith((".fif", ".npy")) else a for a in arguments]
     noise = [] if "--noise-std" in arguments else ["--noise-std", "1e-6"]
     out = [] if "--out" in arguments else ["--out", str(tmp_path / "out.npz")]
-    result = _cli(*arguments, *noise, *out)
+    result = cli("reconstruct", *arguments, *noise, *out)
     assert result.returncode == 2, result.stderr
     assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
     assert message in result.stderr

@@ -160,7 +160,7 @@ CASES = {
     "unknown smoother": (
         _with("smoother", "rts"),
         ValueError,
-        r"smoother must be one of \[None, 'rts-standardized', 'rts-state'\], got 'rts'",
+        r"smoother must be one of \[None, 'rts-standardized', 'rts-state', 'none'\], got 'rts'",
     ),
     "smoother True": (_with("smoother", True), ValueError, "smoother must be one of"),
     "unknown method": (

@@ -36,6 +36,8 @@ def head_kwargs(cell, settings, testing_data=None, cache_dir=None):
     kwargs = dict(conductor=cell.conductor, source_space=cell.source_space)
     if cell.conductor == "sphere" and cell.source_space == "volume":
         kwargs["n_positions"] = settings.n_positions
+    elif settings.spacing_mm is not None:
+        kwargs["spacing_mm"] = settings.spacing_mm
     if cell.realistic:
         kwargs.update(testing_data=str(testing_data), cache_dir=cache_dir)
     return kwargs

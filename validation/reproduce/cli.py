@@ -133,6 +133,7 @@ def _settings(args, realistic=True):
         fine_step=preset.fine_step if args.fine_step is None else args.fine_step,
         quick=args.quick,
         realistic=realistic,
+        spacing_mm=preset.spacing_mm,
     )
     if args.jobs == 0 or args.jobs < -1:
         raise _UsageError(f"--jobs must be a positive number of workers or -1, got {args.jobs}")

@@ -96,6 +96,7 @@ def make_head(
     montage="biosemi64",
     testing_data=None,
     cache_dir=None,
+    spacing_mm=None,
 ):
     """One cell of conductor x source space.
 
@@ -112,6 +113,9 @@ def make_head(
         Root of MNE's testing dataset (BEM heads only; None: MNE's lookup, no download).
     cache_dir : path-like or None
         Cache of the BEM heads' forward models.
+    spacing_mm : float or None
+        The spacing of the source spaces whose spacing is fixed (all but the sphere's volume
+        grid, sized by ``n_positions``); None: each one's default.
 
     Returns
     -------
@@ -132,5 +136,5 @@ def make_head(
                 f"montage={SUBJECT_MONTAGE!r} (the sample subject's own electrodes) needs "
                 "conductor='bem', the subject's head; the sphere takes a built-in montage"
             )
-        return make_sphere_head(source_space, n_positions, montage)
-    return make_realistic_head(testing_data, source_space, montage, cache_dir)
+        return make_sphere_head(source_space, n_positions, montage, spacing_mm)
+    return make_realistic_head(testing_data, source_space, montage, cache_dir, spacing_mm)

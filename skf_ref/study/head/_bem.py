@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._utils.atomic_files import atomic_path
-from ..._utils.checks import InputError, check_choice, check_instance
+from ..._utils.checks import InputError, check_choice, check_instance, check_real
 from ...method.result import readonly
 from ._data import SENSOR_FILES, SUBJECT, TESTING_FILES, cache_dir, find_testing_data, input_digest
 from ._model import Anatomy, HeadModel, apply_affine, finish_forward, with_average_reference
@@ -74,8 +74,9 @@ _TEMPLATES = ("colin27_1005", "standard_1005")  # MNI 10-05 positions; the first
 
 
 def make_realistic_head(
-    testing_data=None, source_space="anatomical", montage="biosemi64", cache_dir=None
-):
+    testing_data=None, source_space="anatomical", montage="biosemi64", cache_dir=None,
+    spacing_mm=None,
+):  # fmt: skip
     """The sample subject's BEM head with either source space (see the module docstring).
 
     Parameters
@@ -89,6 +90,9 @@ def make_realistic_head(
         covariance of its recording as ``head.noise_cov`` (:func:`subject_electrodes`).
     cache_dir : path-like or None
         Where the forward models are cached (:func:`skf_ref.study.head.cache_dir`).
+    spacing_mm : float or None
+        The source grid's spacing; None: :data:`ANATOMICAL_SPACING_MM` (cortex + thalamus)
+        or :data:`VOLUME_SPACING_MM` (the grid filling the inner skull).
 
     Returns
     -------
@@ -118,7 +122,13 @@ def make_realistic_head(
                 f"montage={SUBJECT_MONTAGE!r} needs the subject's recording and noise "
                 f"covariance from MNE's testing dataset; {str(root)!r} lacks {missing[0]}"
             )
-    return _build(str(root), source_space, montage, str(_data_cache_dir(cache_dir)))
+    default = ANATOMICAL_SPACING_MM if source_space == "anatomical" else VOLUME_SPACING_MM
+    spacing_mm = check_real(
+        "spacing_mm", default if spacing_mm is None else spacing_mm, minimum=1.0, maximum=20.0
+    )
+    return _build(
+        str(root), source_space, montage, str(_data_cache_dir(cache_dir)), float(spacing_mm)
+    )
 
 
 def _data_cache_dir(path):
@@ -272,7 +282,7 @@ def subject_electrodes(testing_data):
     return with_average_reference(info), readonly(0.5 * (C + C.T))
 
 
-def _source_space(root, bem, source_space):
+def _source_space(root, bem, source_space, spacing_mm):
     import mne
 
     common = dict(
@@ -284,13 +294,13 @@ def _source_space(root, bem, source_space):
         verbose=False,
     )
     if source_space == "volume":
-        return mne.setup_volume_source_space(pos=VOLUME_SPACING_MM, **common)
+        return mne.setup_volume_source_space(pos=spacing_mm, **common)
     return mne.setup_volume_source_space(
-        pos=ANATOMICAL_SPACING_MM, mri="aseg.mgz", volume_label=dict(LABELS), **common
+        pos=spacing_mm, mri="aseg.mgz", volume_label=dict(LABELS), **common
     )
 
 
-def _forward(root, cache, bem, info, trans, source_space, montage):
+def _forward(root, cache, bem, info, trans, source_space, montage, spacing_mm):
     import mne
 
     files = {name: root / rel for name, rel in TESTING_FILES.items()}
@@ -298,7 +308,7 @@ def _forward(root, cache, bem, info, trans, source_space, montage):
         what="forward",
         source_space=source_space,
         labels=LABELS if source_space == "anatomical" else None,
-        spacing_mm=ANATOMICAL_SPACING_MM if source_space == "anatomical" else VOLUME_SPACING_MM,
+        spacing_mm=spacing_mm,
         mindist_mm=MINDIST_MM,
         interpolator=False,
         montage=montage,
@@ -309,7 +319,7 @@ def _forward(root, cache, bem, info, trans, source_space, montage):
     path = cache / f"{source_space}-{input_digest(files, parameters)}-fwd.fif"
     with _locked(path):
         if not path.exists():
-            src = _source_space(root, bem, source_space)
+            src = _source_space(root, bem, source_space, spacing_mm)
             fwd = mne.make_forward_solution(
                 info, trans=trans, src=src, bem=bem, eeg=True, meg=False, verbose=False
             )
@@ -341,7 +351,7 @@ def _fit_sphere(points):
 
 
 @functools.lru_cache(maxsize=4)
-def _build(root, source_space, montage, cache):
+def _build(root, source_space, montage, cache, spacing_mm):
     import mne
 
     root, cache = Path(root), Path(cache)
@@ -357,7 +367,7 @@ def _build(root, source_space, montage, cache):
         info, noise_cov = subject_electrodes(root)
     else:
         info = _electrodes(montage, mni_to_head, scalp)
-    fwd = _forward(root, cache, bem, info, trans, source_space, montage)
+    fwd = _forward(root, cache, bem, info, trans, source_space, montage, spacing_mm)
     fwd, leadfield = finish_forward(fwd, len(info.ch_names))
     inner = _surface(bem, _INNER_SKULL_ID, head_from_mri)
     centre, radius = _fit_sphere(inner[0])
@@ -378,7 +388,7 @@ def _build(root, source_space, montage, cache):
         trans=trans,
         subject=SUBJECT,
     )
-    spacing = ANATOMICAL_SPACING_MM if source_space == "anatomical" else VOLUME_SPACING_MM
+    spacing = spacing_mm
     return HeadModel(
         leadfield=leadfield,
         positions=readonly(np.array(fwd["source_rr"], dtype=float)),

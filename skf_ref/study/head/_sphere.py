@@ -41,7 +41,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..._utils.checks import InputError, check_int
+from ..._utils.checks import InputError, check_int, check_real
 from ...method.result import readonly
 from ..sizes import DEFAULT_POSITIONS
 from ._model import Anatomy, HeadModel, apply_affine, finish_forward, sensors
@@ -114,16 +114,21 @@ def make_head_model(n_positions=DEFAULT_POSITIONS, montage="biosemi64", seed=Non
     return _fresh(_build_head(n_positions, montage, seed))
 
 
-def make_sphere_head(source_space="volume", n_positions=DEFAULT_POSITIONS, montage="biosemi64"):
+def make_sphere_head(
+    source_space="volume", n_positions=DEFAULT_POSITIONS, montage="biosemi64", spacing_mm=None
+):
     """The sphere head with either source space (see the module docstring).
 
     Parameters
     ----------
     source_space : {"volume", "anatomical"}
         ``"volume"``: :func:`make_head_model` (``n_positions``); ``"anatomical"``: the
-        sphere's cortex and thalami on a 6 mm lattice (``n_positions`` is not used).
+        sphere's cortex and thalami on a lattice of ``spacing_mm`` (``n_positions`` is not
+        used).
     n_positions : int
     montage : str
+    spacing_mm : float or None
+        The anatomical lattice's spacing; None: :data:`SPHERE_ANATOMICAL_SPACING_MM`.
 
     Returns
     -------
@@ -133,7 +138,9 @@ def make_sphere_head(source_space="volume", n_positions=DEFAULT_POSITIONS, monta
         return make_head_model(n_positions, montage)
     if source_space != "anatomical":
         raise InputError(f"source_space must be 'volume' or 'anatomical', got {source_space!r}")
-    return _fresh(_build_anatomical(check_montage(montage)))
+    spacing_mm = SPHERE_ANATOMICAL_SPACING_MM if spacing_mm is None else spacing_mm
+    spacing_mm = check_real("spacing_mm", spacing_mm, minimum=1.0, maximum=20.0)
+    return _fresh(_build_anatomical(check_montage(montage), spacing_mm))
 
 
 def _fresh(cached):
@@ -319,7 +326,7 @@ def _build_head(n_positions, montage, seed):
     return _sphere_head(positions, info, sphere, montage, seed, spacing, "volume")
 
 
-def anatomical_positions(sphere, floor):
+def anatomical_positions(sphere, floor, spacing_mm=SPHERE_ANATOMICAL_SPACING_MM):
     """The sphere's cortex + thalamus positions (m, head coordinates), cortex first.
 
     Parameters
@@ -327,6 +334,8 @@ def anatomical_positions(sphere, floor):
     sphere : mne.bem.ConductorModel
     floor : float
         Height (m, head coordinates) below which the cortex has no positions.
+    spacing_mm : float
+        The lattice's spacing.
 
     Returns
     -------
@@ -334,7 +343,7 @@ def anatomical_positions(sphere, floor):
     """
     origin = np.asarray(sphere["r0"], dtype=float)
     brain = min(layer["rad"] for layer in sphere["layers"])
-    spacing = SPHERE_ANATOMICAL_SPACING_MM * 1e-3
+    spacing = spacing_mm * 1e-3
     extent = int(np.ceil(brain / spacing)) + 1
     k = np.arange(-extent, extent) + 0.5
     cells = np.stack(np.meshgrid(k, k, k, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -349,10 +358,8 @@ def anatomical_positions(sphere, floor):
 
 
 @functools.lru_cache(maxsize=4)
-def _build_anatomical(montage):
+def _build_anatomical(montage, spacing_mm):
     info, sphere = sensors(montage)
     floor = 0.0  # the plane of the fiducials: z = 0 in head coordinates
-    positions = anatomical_positions(sphere, floor)
-    return _sphere_head(
-        positions, info, sphere, montage, None, SPHERE_ANATOMICAL_SPACING_MM * 1e-3, "anatomical"
-    )
+    positions = anatomical_positions(sphere, floor, spacing_mm)
+    return _sphere_head(positions, info, sphere, montage, None, spacing_mm * 1e-3, "anatomical")
