@@ -118,7 +118,7 @@ def run(args):
     )
     table = demo.metrics.loc[list(_PRINTED)].T
     table.index = [_row_label(demo, column) for column in table.index]
-    print(table.round(1).to_string())
+    print(table.map(lambda v: f"{v:.1f}" if isinstance(v, float) else v).to_string())
     return demo
 
 
