@@ -156,10 +156,11 @@ def subject_mni_to_head(testing_data):
     trans = mne.read_trans(root / TESTING_FILES["trans"], verbose=False)
     basis = np.vstack([np.zeros(3), np.eye(3)])
     mni = mne.head_to_mni(basis, SUBJECT, trans, subjects_dir=root / "subjects", verbose=False)
-    head_to_mni = np.eye(4)
-    head_to_mni[:3, 3] = mni[0] * 1e-3
-    head_to_mni[:3, :3] = (mni[1:] - mni[0]).T * 1e-3
-    return np.linalg.inv(head_to_mni)
+    linear, offset = (mni[1:] - mni[0]).T * 1e-3, mni[0] * 1e-3  # mni = linear @ head + offset
+    mni_to_head = np.eye(4)
+    mni_to_head[:3, :3] = np.linalg.solve(linear, np.eye(3))
+    mni_to_head[:3, 3] = -mni_to_head[:3, :3] @ offset
+    return mni_to_head
 
 
 @contextlib.contextmanager
