@@ -41,7 +41,7 @@ from validation.reproduce.settings import (
     VERDICTS,
     Settings,
 )
-from validation.reproduce.specificity import TIMINGS_TITLE
+from validation.reproduce.specificity_report import TIMINGS_TITLE
 from validation.reproduce.tuned import TUNED, compare_tuned, paper_cells
 
 # What the issue asks the tests to run: the quick report; without MNE's testing dataset (the

@@ -12,10 +12,11 @@ decision rules (stated before any number), one verdict per finding, tables and f
 - ``fine_grid.csv``: a finer EP x PM map, -20 .. 40 dB, for (exponent 0.5, no smoothing)
   and (exponent 1.25, "rts-standardized"), at the same noise levels and seeds.
 
-Presets: the full run uses 10 seeds, the default head model (about 3000 positions) and a
-10 dB step of the fine map; ``--quick`` uses 3 seeds, about 1000 positions and a 20 dB
-step. ``--seeds``, ``--n-positions`` and ``--fine-step`` override the preset (the tests use
-them for an even smaller run).
+Presets: the full run uses 10 seeds (20 in the realistic cortex + thalamus cell's
+specificity tables), the default head models (about 3000 positions in the sphere's volume
+grid) and a 10 dB step of the fine map; ``--quick`` uses 2 seeds, about 1000 positions, 9 mm
+grids where a head's spacing is fixed, a 60 dB step, and the baselines of the main condition
+only. ``--seeds``, ``--n-positions`` and ``--fine-step`` override the preset.
 
 Output folder. Only the full preset writes the committed report, ``validation/report/``
 (its default ``DIR``). Any other run (``--quick``, or an override that changes the
@@ -44,7 +45,12 @@ above the lowest electrode, ``sensitivity.csv``), ``figures`` (matplotlib, impor
 ``report`` and ``discussion`` (a cell's CELL.md), ``cli`` (arguments, results files, sweeps,
 :func:`main`). The 2 x 2 design: ``cells`` (each cell's sweeps and the variants),
 ``overview`` (REPORT.md, assembled from ``findings``: the rule sets and verdicts,
-``controls``: the controls and lone sources, and ``deviations``).
+``controls``: the controls and lone sources, and ``deviations``), ``rules_v2`` and
+``rules_v3``, ``tuned`` (priors chosen by the data against the best fixed priors). What the
+SKF is worth: ``baselines`` (every method on identical simulations, the real-noise
+condition), ``specificity`` (ROC areas, detection rates, the recommendation),
+``recommend`` (the rule, committed before the numbers) and ``specificity_report`` (its
+section, tables and figures).
 """
 
 from .cells import CellResult, Variant, best_cell, run_cell_sweeps, run_variants

@@ -257,9 +257,9 @@ def _specificity(settings, out, n_jobs, results, common):
     Returns
     -------
     headline, details : str
-        The report's sections (:func:`specificity.specificity_text`).
+        The report's sections (:func:`specificity_report.specificity_text`).
     """
-    from . import specificity
+    from . import specificity, specificity_report
     from .recommend import CHOICE_SEEDS
 
     raw = run_baselines(settings, out, n_jobs, **common)
@@ -268,11 +268,11 @@ def _specificity(settings, out, n_jobs, results, common):
     choice = specificity.recommendation(raw[chosen])
     specificity.write_recommendation(out, *choice[:2], raw.loc[chosen, "seed"].unique())
     label = specificity.setting_label(choice[0])
-    figures = specificity.write_figures(raw[~chosen], settings, out, label)
+    figures = specificity_report.write_figures(raw[~chosen], settings, out, label)
     with atomic_path(out / "baselines" / "scores.csv") as tmp:
         table = specificity.scores(raw[~chosen])
         table.to_csv(tmp, index=False, float_format="%.6g", lineterminator="\n")
-    return specificity.specificity_text(table, choice, settings, figures)
+    return specificity_report.specificity_text(table, choice, settings, figures)
 
 
 _NO_DATASET = (

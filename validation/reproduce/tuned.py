@@ -53,7 +53,7 @@ from .settings import (
     TUNED_PRIOR,
     TUNING,
 )
-from .stats import _cell, _with_score
+from .stats import _cell, _with_score, quartiles
 
 __all__ = [
     "SEPARATION_SHARE",
@@ -243,16 +243,6 @@ def run_tuned(head_kwargs, seeds, path, n_jobs=1):
 # --------------------------------------------------------------------------- comparison
 
 
-def _quartiles(values):
-    """Median, Q1, Q3 and count of the finite values (NaN and 0 for none)."""
-    values = np.asarray(values, dtype=float)
-    values = values[np.isfinite(values)]
-    if values.size == 0:
-        return np.nan, np.nan, np.nan, 0
-    q1, median, q3 = np.percentile(values, [25, 50, 75])
-    return float(median), float(q1), float(q3), int(values.size)
-
-
 @dataclass(frozen=True)
 class Entry:
     """One set of priors at one setting: how it scores over the scoring seeds.
@@ -344,9 +334,9 @@ def _entry(label, priors, rows):
     return Entry(
         label,
         priors,
-        _quartiles(rows["score"]),
+        quartiles(rows["score"]),
         (int(separated.sum()), len(rows)),
-        _quartiles(correlation),
+        quartiles(correlation),
     )
 
 
@@ -368,7 +358,7 @@ def _at(rows, ep, pm):
 def _chosen(rows):
     text = []
     for name, column in (("EP", "ep_snr_db"), ("PM", "pm_snr_db")):
-        median, q1, q3, _ = _quartiles(rows[column])
+        median, q1, q3, _ = quartiles(rows[column])
         text.append(f"{name} {median:.1f} [{q1:.1f}, {q3:.1f}]")
     return ", ".join(text)
 
