@@ -24,7 +24,7 @@ from .findings import (
 )
 from .report import RULES_TEXT, _markdown_table
 from .settings import CELLS
-from .tuned import tuned_section
+from .tuned_report import tuned_section
 
 __all__ = ["Overview", "overview_text"]
 
