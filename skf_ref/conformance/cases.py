@@ -34,7 +34,7 @@ __all__ = [
 CONFORMANCE_VERSION = 2
 #: Largest relative difference, ``max|theirs - expected| / max|expected|`` per output, that counts
 #: as agreement. Double-precision computations (the package's three paths, and the filter
-#: written three other ways) are within 1e-13 of these cases computed with 50 significant
+#: written three other ways) are at most 1e-13 from these cases computed with 50 significant
 #: digits, and within 1e-10 on the ill-conditioned one (validation/conformance_suite.md).
 #: Every mistake in :mod:`skf_ref.conformance.mistakes` moves some output by 1e-3 or more (the
 #: tests require it). 1e-6 leaves three orders of magnitude or more on each side.
