@@ -1,4 +1,8 @@
-"""`compare`: the exact outputs agree, each known mistake is named, noise alone is not."""
+"""`compare`: the exact outputs agree, each known mistake is named, noise alone is not.
+
+The implementations under test are tests/independent_skf.py: an SKF written from
+docs/model.md alone, which can make each catalogued mistake and compute in float32.
+"""
 
 import csv
 import json
@@ -9,17 +13,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from independent_skf import run_case
 from scipy.io import savemat
 
 from skf_ref import InputError, compare
 from skf_ref.cli import main
-from skf_ref.conformance import OUTPUTS, TOLERANCE, cases, export
+from skf_ref.conformance import FLOAT32_TOLERANCE, OUTPUTS, TOLERANCE, cases, export
 from skf_ref.conformance.mistakes import SUSPECTS
 
 ENV = os.environ | {"PYTHONPATH": str(Path(__file__).resolve().parents[1])}
 CASES = {case.name: case for case in cases()}
 # Every suspect must move some output by at least this much on every case it applies to,
-# so that it can never be confused with rounding (TOLERANCE is 1e-6).
+# so that it can never be confused with rounding (TOLERANCE is 1e-6, float32's 1e-4).
 MISTAKE_SIZE = 1e-3
 # Noise 100 times the tolerance: their numbers disagree, yet are far from every mistake.
 NOISE = 100 * TOLERANCE
@@ -29,6 +34,9 @@ APPLICABLE = [
     for suspect in SUSPECTS
     if suspect.compute(case) is not None
 ]
+# The mistakes no case can tell apart, where the case makes them the same computation:
+# with alpha = 1, the exponent on the square root of w_t is w_t ** -0.5.
+SAME_AT_EXPONENT_1 = {"exponent_on_square_root", "exponent_fixed_at_half"}
 
 
 def _relative(a, b):
@@ -39,17 +47,17 @@ def _suspect(name):
     return next(suspect for suspect in SUSPECTS if suspect.name == name)
 
 
-def _long_csv(path, outputs):
-    """Their outputs as the long table of skf_ref.conformance.compare."""
-    with open(path, "w", newline="") as stream:
+def _long_csv(path, outputs, number="{!r}", encoding="utf-8"):
+    """Their outputs as the long table of skf_ref.conformance.their_outputs."""
+    with open(path, "w", newline="", encoding=encoding) as stream:
         writer = csv.writer(stream)
         writer.writerow(["output", "source", "step", "value"])
         for name, value in outputs.items():
             if np.ndim(value) == 0:
-                writer.writerow([name, "", "", repr(float(value))])
+                writer.writerow([name, "", "", number.format(float(value))])
                 continue
             for (s, t), entry in np.ndenumerate(value):
-                writer.writerow([name, s + 1, t + 1, repr(float(entry))])
+                writer.writerow([name, s + 1, t + 1, number.format(float(entry))])
     return path
 
 
@@ -68,7 +76,7 @@ def test_the_exact_outputs_agree(name):
     assert [row["output"] for row in result.rows] == list(OUTPUTS)
 
 
-@pytest.mark.parametrize("fmt", ["npz", "mat", "mat73", "csv"])
+@pytest.mark.parametrize("fmt", ["npz", "mat", "mat73", "csv", "csv with a byte order mark"])
 def test_their_files_in_every_format(tmp_path, exported, fmt):
     case = CASES["free_orientation"]
     theirs = {name: getattr(case.reconstruct("filterpy"), name) for name in OUTPUTS}
@@ -81,23 +89,48 @@ def test_their_files_in_every_format(tmp_path, exported, fmt):
         from test_io import _v73
 
         _v73(path, **{k: v for k, v in theirs.items() if k != "log_likelihood"})
-    else:
-        _long_csv(path, theirs)
+    else:  # Excel and Windows editors start UTF-8 text with a byte order mark
+        _long_csv(path, theirs, encoding="utf-8-sig" if "mark" in fmt else "utf-8")
     result = compare(exported / "free_orientation.mat", path)
     assert result.agrees, result.report()
     assert result.ignored == (["extra"] if fmt == "npz" else [])
 
 
 @pytest.mark.parametrize("name, suspect", APPLICABLE)
-def test_each_mistake_is_diagnosed_as_itself(name, suspect):
+def test_each_catalogued_mistake_moves_an_output_far_beyond_rounding(name, suspect):
     case = CASES[name]
     theirs = _suspect(suspect).compute(case)
     if suspect != "transposed":  # the others keep the layout: their size is in the values
         assert max(_relative(theirs[k], case.expected[k]) for k in OUTPUTS) >= MISTAKE_SIZE
-    result = compare(case, theirs)
-    assert not result.agrees and result.exit_status == 1
-    assert result.diagnosis == [suspect], result.report()
-    assert f"Likely cause: {suspect}" in result.report()
+    assert suspect in compare(case, theirs).diagnosis  # the catalogue names itself
+
+
+def test_an_independent_implementation_agrees_with_every_case():
+    for name, case in CASES.items():
+        result = compare(case, run_case(case))
+        assert result.agrees, result.report()
+        assert max(row["largest_difference"] for row in result.rows) < 1e-10, name
+
+
+@pytest.mark.parametrize("suspect", [suspect.name for suspect in SUSPECTS])
+def test_an_implementation_making_each_mistake_fails_and_hears_its_name(suspect):
+    named_alone = []
+    for name, case in CASES.items():
+        theirs = run_case(case, mistake=suspect)
+        if theirs is None:  # the mistake cannot happen in this case
+            continue
+        result = compare(case, theirs)
+        assert not result.agrees and result.exit_status == 1, (name, result.report())
+        if result.diagnosis:  # never the wrong name
+            assert suspect in result.diagnosis, (name, result.report())
+            assert set(result.diagnosis) <= {suspect} | SAME_AT_EXPONENT_1, (
+                name,
+                result.diagnosis,
+            )
+        if result.diagnosis == [suspect]:
+            named_alone.append(name)
+            assert f"Likely cause: {suspect}" in result.report()
+    assert named_alone, f"no case names {suspect} alone"
 
 
 def test_every_suspect_is_tried_on_some_case():
@@ -113,11 +146,103 @@ def test_noise_alone_is_not_diagnosed(name):
         size = rng.uniform(0.5, 1, np.shape(value)) * rng.choice([-1, 1], np.shape(value))
         theirs[key] = value + NOISE * np.max(np.abs(value)) * size
     result = compare(case, theirs)
-    assert not result.agrees and result.diagnosis == []
-    assert "No known mistake reproduces these numbers." in result.report()
+    assert not result.agrees and result.diagnosis == [] and result.closest is None
+    report = result.report()
+    assert "No known mistake reproduces these numbers" in report and "Closest" not in report
+    assert "None comes closer to them than the expected outputs." in report
+    assert "if your implementation computes in float32, it agrees to float32" in report
     for row in result.rows:
         assert TOLERANCE < row["largest_difference"] <= NOISE
     assert {row["first_step"] for row in result.rows} <= {1, None}
+
+
+def test_closest_only_when_a_mistake_explains_the_numbers_better():
+    case = CASES["priors_toolbox"]  # the other mistakes are all far from this one
+    mistaken = _suspect("exponent_dropped").compute(case)
+
+    def between(fraction):  # their numbers, a fraction of the way to the mistake
+        return {k: case.expected[k] + fraction * (mistaken[k] - case.expected[k]) for k in OUTPUTS}
+
+    near = compare(case, between(0.9))
+    assert near.diagnosis == [] and near.closest == "exponent_dropped"
+    assert near.suspects and near.difference == pytest.approx(0.9 * _distance(case, mistaken))
+    assert "Closest: exponent_dropped, off by" in near.report()
+    far = compare(case, between(0.3))
+    assert far.closest is None and "Closest" not in far.report()
+    assert far.to_dict()["closest"] is None and near.to_dict()["closest"] == "exponent_dropped"
+
+
+def _distance(case, outputs):
+    return max(_relative(outputs[k], case.expected[k]) for k in OUTPUTS)
+
+
+# --- precision --------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", CASES)
+def test_a_float32_implementation_is_told_it_agrees_to_float32_precision(name):
+    case = CASES[name]
+    result = compare(case, run_case(case, dtype=np.float32))
+    if name == "ill_conditioned":  # this one needs double precision, and says so
+        assert not result.agrees and result.precision.numbers == "float32"
+        assert "run in double precision" in result.hint
+        return
+    if result.agrees:  # float32 is within 1e-6 on several well-conditioned cases
+        assert result.hint is None
+    else:
+        assert result.precision.numbers == "float32" and result.diagnosis == []
+        assert "It agrees to float32 precision: use --tolerance 1e-4." in result.report()
+        assert "No known mistake" not in result.report()  # the precision explains it
+    assert compare(case, run_case(case, dtype=np.float32), tolerance=FLOAT32_TOLERANCE).agrees
+
+
+def test_a_float32_implementation_making_a_mistake_still_hears_its_name():
+    case = CASES["priors_toolbox"]  # float32 rounding reaches 1.4e-5 here
+    result = compare(case, run_case(case, mistake="exponent_dropped", dtype=np.float32))
+    assert result.diagnosis == ["exponent_dropped"], result.report()
+    assert result.precision.tolerance == FLOAT32_TOLERANCE
+
+
+def test_outputs_printed_with_six_digits_are_told_so(tmp_path):
+    case = CASES["transition"]
+    path = _long_csv(tmp_path / "mine.csv", case.expected, "{:.6g}")
+    result = compare(case, path)
+    assert not result.agrees and result.precision.numbers == "6 significant digits"
+    assert "are the rounding of printing 6 digits" in result.hint
+    assert "Print 17 significant digits (%.17g) to compare at 1e-6, or use --tolerance 1e-5" in (
+        result.hint
+    )
+    assert compare(case, path, tolerance=1e-5).agrees
+    mistaken = _long_csv(
+        tmp_path / "bad.csv", _suspect("transition_ignored").compute(case), "{:.6g}"
+    )
+    assert compare(case, mistaken).diagnosis == ["transition_ignored"]
+
+
+# --- shapes -----------------------------------------------------------------------------------
+
+
+def test_a_transposed_output_is_named_as_such():
+    case = CASES["original_skf"]
+    result = compare(case, {"z": case.expected["z"].T, "x": case.expected["x"]})
+    (z_row, x_row) = result.rows
+    assert (z_row["layout"], z_row["verdict"], z_row["largest_difference"]) == (
+        "transposed",
+        "disagrees",
+        0.0,
+    )
+    assert x_row["verdict"] == "agrees" and result.exit_status == 1
+    assert "Transposed: z given as (n_times, n_sources)" in result.report()
+    assert result.diagnosis == []  # the mistake transposes every output; here x is right
+    every = compare(case, {"z": case.expected["z"].T, "x": case.expected["x"].T})
+    assert every.diagnosis == ["transposed"]
+
+
+def test_a_transposed_output_of_the_square_case_is_found_by_its_values():
+    case = CASES["square"]
+    result = compare(case, run_case(case, mistake="transposed"))
+    assert [row["layout"] for row in result.rows] == ["as expected"] * len(OUTPUTS)
+    assert result.diagnosis == ["transposed"], result.report()
 
 
 def test_a_late_difference_is_found_at_its_step():
@@ -170,11 +295,12 @@ def test_unusable_outputs_name_the_key_and_the_shape(theirs, match):
         ("output,source,step,value\nz,1,1,1\nz,1,1,1\n", r"line 3: z \(1, 1\) appears twice"),
         ("output,source,step,value\nz,1,1,1\nz,2,2,1\n", r"z has 2 values for sources 1..2"),
         ("output,source,step,value\nz,1,1\n", r"line 2: expected 4 fields, got 3"),
+        ("output,source,step,value\nz,1,1,\xe9\n", r"not UTF-8 text \(byte 31\); save"),
     ],
 )
 def test_unusable_csv_names_the_line(tmp_path, content, match):
     path = tmp_path / "mine.csv"
-    path.write_text(content)
+    path.write_bytes(content.encode("latin-1"))
     with pytest.raises(InputError, match=match):
         compare(CASES["original_skf"], path)
 
@@ -212,15 +338,19 @@ ERRORS = [
     (["compare", "{case}", "{wrong_shape}", "--tolerance", "0"], "--tolerance: must be > 0"),
     (["compare", "{case}"], "required: THEIRS"),
     (["compare", "{case}", "{nothing}", "--json", "r.json"], "holds none of the outputs"),
+    (["compare", "{bad_smoother}", "{nothing}"], "smoother must be one of [None, "),
+    (["compare", "{case}", "{wrong_shape}"], "z must have shape (4, 7) (n_sources, n_times)"),
 ]
 
 
 def _arguments(arguments, folder, exported):
-    """The arguments with {case}, {wrong_shape} and {nothing} made into files."""
+    """The arguments with {case}, {wrong_shape}, {nothing} and {bad_smoother} made files."""
     np.savez(folder / "wrong_shape.npz", z=np.ones((4, 6)))
     np.savez(folder / "nothing.npz", y=np.ones((4, 7)))
+    case = dict(np.load(exported / "original_skf.npz")) | {"smoother": np.array("rts")}
+    np.savez(folder / "bad_smoother.npz", **case)
     paths = {"case": exported / "original_skf.npz"}
-    paths |= {name: folder / f"{name}.npz" for name in ("wrong_shape", "nothing")}
+    paths |= {name: folder / f"{name}.npz" for name in ("wrong_shape", "nothing", "bad_smoother")}
     return [argument.format(**paths) for argument in arguments]
 
 
@@ -253,6 +383,13 @@ def test_console_errors_through_a_subprocess(tmp_path, exported, arguments, mess
     assert result.stderr.count("\n") == 1 and result.stderr.startswith("skf-ref: error:")
     assert message in result.stderr and "Traceback" not in result.stderr
     assert sorted(tmp_path.iterdir()) == before  # nothing left behind
+
+
+def test_command_line_a_transposed_output_exits_1(tmp_path, capsys, exported):
+    np.savez(tmp_path / "mine.npz", z=CASES["original_skf"].expected["z"].T)
+    assert main(["compare", str(exported / "original_skf.npz"), str(tmp_path / "mine.npz")]) == 1
+    out = capsys.readouterr().out
+    assert "disagrees (transposed)" in out and "Likely cause: transposed" in out
 
 
 def test_console_exit_status_1_when_something_disagrees(tmp_path, exported):

@@ -15,9 +15,12 @@ examples:
 THEIRS holds any of z, z_filtered, x, x_filtered, weights ((n_sources, n_times)) and
 log_likelihood: a .npz or .mat file with those names, or a .csv long table with the
 header output,source,step,value (source and step counting from 1; empty for
-log_likelihood). Exit status: 0 when every output given agrees, 1 when one does not
-(the report names the known mistake that reproduces the numbers, if one does), 2 when
-the files cannot be used.
+log_likelihood). An output given as (n_times, n_sources) is compared as its transpose
+and reported as transposed. Exit status: 0 when every output given agrees; 1 when one
+does not, or is transposed (the report names the known mistake that reproduces the
+numbers, if one does, and says when they agree to the precision of float32 or of the
+digits printed); 2 when the files cannot be used (no output name, another shape, not a
+case file).
 """
 
 
@@ -37,7 +40,8 @@ def add_parser(subparsers):
     parser.add_argument(
         "--tolerance",
         type=positive(),
-        help="largest relative difference that agrees (default: the case's, 1e-6)",
+        help="largest relative difference that agrees (default: the case's, 1e-6; 1e-4 for "
+        "a float32 implementation)",
     )
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the result as JSON")
     parser.set_defaults(run=run)

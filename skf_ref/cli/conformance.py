@@ -1,4 +1,4 @@
-"""``skf-ref conformance export``: the conformance cases, to check another SKF against."""
+"""``skf-ref conformance export``: the pinned conformance suite, to check another SKF against."""
 
 import sys
 from pathlib import Path
@@ -14,10 +14,12 @@ examples:
   skf-ref conformance export skf-cases --format mat    # MATLAB and Octave only
 
 Then run your implementation on each case (its inputs: L, Y, noise_cov, theta0, q,
-transition, exponent, smoother), save its outputs (z, z_filtered, x, x_filtered, weights,
-log_likelihood) and check them with `skf-ref compare CASE_FILE YOURS`. manifest.json lists
-the cases, what each exercises, the tolerance and the versions; docs/conformance.md
-describes the files.
+transition, exponent, smoother; a scalar noise_cov c is R = c I, a variance), save its
+outputs (z, z_filtered, x, x_filtered, weights, log_likelihood) and check them with
+`skf-ref compare CASE_FILE YOURS`. The runners run_cases.m (MATLAB, Octave) and
+run_cases.py (Python) do the first two for every case. manifest.json lists the cases,
+what each exercises, its tolerance, the versions and every file's sha256;
+docs/conformance.md describes the files.
 """
 
 
@@ -32,10 +34,11 @@ def add_parser(subparsers):
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     export = actions.add_parser(
         "export",
-        help="write the cases and manifest.json to a folder",
-        description="Write every conformance case (inputs and expected outputs of the dense "
-        "reference path) as one file per case and format, and manifest.json, to DIR. The "
-        "files are the same, byte for byte, every time.",
+        help="copy the cases, manifest.json and the runners to a folder",
+        description="Copy the pinned conformance suite (every case's inputs and expected "
+        "outputs, one file per case and format, and manifest.json with their sha256) and "
+        "the runners run_cases.m and run_cases.py to DIR. The files are the suite's, byte "
+        "for byte, whatever the version of skf_ref.",
         epilog=_EXAMPLES,
     )
     export.add_argument("directory", type=Path, metavar="DIR", help="folder (made if missing)")
@@ -52,13 +55,15 @@ def add_parser(subparsers):
 
 def run_export(args):
     """Run ``skf-ref conformance export``; returns the files written."""
-    from ..conformance import CONFORMANCE_VERSION, TOLERANCE, export
+    from ..conformance import CONFORMANCE_VERSION, export, manifest
 
     written = export(args.directory, args.format)
     if not args.quiet:
+        n_cases = sum(path.suffix in (".npz", ".mat") for path in written)
         print(
-            f"wrote {len(written) - 1} case files and manifest.json to {args.directory} "
-            f"(conformance set {CONFORMANCE_VERSION}, tolerance {TOLERANCE:g})",
+            f"wrote {n_cases} case files, the runners run_cases.m and run_cases.py, and "
+            f"manifest.json to {args.directory} (conformance suite version "
+            f"{CONFORMANCE_VERSION}, computed by skf_ref {manifest()['skf_ref_version']})",
             file=sys.stderr,
         )
     return written

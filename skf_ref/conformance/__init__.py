@@ -2,9 +2,11 @@
 
 A lab that writes the SKF in MATLAB, C++, Julia or on a GPU runs these cases and compares
 its outputs with :func:`skf_ref.compare` (``skf-ref compare``). Each case is a few channels,
-sources and steps, generated from a fixed seed; :func:`export` writes one file per case
-(NumPy ``.npz`` or MATLAB v5 ``.mat``) and ``manifest.json``, byte for byte the same from
-run to run on one machine. docs/conformance.md describes the files for those who run them.
+sources and steps, generated once from a fixed seed. The suite is pinned and versioned
+(:data:`CONFORMANCE_VERSION`): its files are part of the package with their sha256 in
+``manifest.json`` (:mod:`skf_ref.conformance.suite`), :func:`cases` reads them and
+:func:`export` copies them, byte for byte, with a runner for MATLAB/Octave and one for
+Python. docs/conformance.md describes the files for those who run them.
 
 Every case file holds these, in MNE-Python's layout (docs/model.md §1):
 
@@ -13,7 +15,7 @@ variable               shape                    meaning
 =====================  =======================  =============================================
 ``L``                  (n_channels, n_sources)  lead field
 ``Y``                  (n_channels, n_times)    data; column ``t`` is ``y_t``
-``noise_cov``          scalar or (m, m)         ``R``; a scalar ``c`` means ``c I``
+``noise_cov``          scalar or (m, m)         ``R``; a scalar ``c`` means ``c I`` (a variance)
 ``theta0``             scalar or (n, n)         ``P_0``; a scalar ``c`` means ``c I``
 ``q``                  scalar or (n, n)         ``Q``; a scalar ``c`` means ``c I``
 ``transition``         scalar or (n, n)         ``A``; a scalar ``c`` means ``c I``
@@ -37,20 +39,35 @@ average-referenced case: ``L_unreferenced``, of which ``L`` is each column minus
 over the channels.
 """
 
-from .case_files import FORMATS, export, manifest, read_case, write_case
-from .cases import CONFORMANCE_VERSION, EXTRAS, INPUTS, OUTPUTS, TOLERANCE, Case, cases
+from .case_files import FORMATS, read_case, write_case
+from .cases import (
+    CONFORMANCE_VERSION,
+    EXTRAS,
+    FLOAT32_TOLERANCE,
+    INPUTS,
+    OUTPUTS,
+    TOLERANCE,
+    Case,
+    generate,
+)
+from .suite import SUITE, build, cases, export, manifest, verify
 
 __all__ = [
     "CONFORMANCE_VERSION",
     "EXTRAS",
+    "FLOAT32_TOLERANCE",
     "FORMATS",
     "INPUTS",
     "OUTPUTS",
+    "SUITE",
     "TOLERANCE",
     "Case",
+    "build",
     "cases",
     "export",
+    "generate",
     "manifest",
     "read_case",
+    "verify",
     "write_case",
 ]

@@ -1,22 +1,28 @@
-"""Case files (``.npz``, MATLAB v5 ``.mat``) and the manifest, the same bytes every time."""
+"""Case files (``.npz``, MATLAB v5 ``.mat``): written the same bytes every time, read back."""
 
 import io
-import json
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from .._utils.atomic_files import atomic_path
-from .._utils.checks import InputError, check_array, check_choice
+from .._utils.checks import InputError, check_array
+from ..method.reconstruct import check_smoother
 from ..method.result import readonly
-from ..version import __version__
-from .cases import CONFORMANCE_VERSION, EXTRAS, INPUTS, OUTPUTS, TOLERANCE, Case, as_value, cases
+from .cases import EXTRAS, INPUTS, OUTPUTS, Case, as_value
 
-__all__ = ["FORMATS", "export", "manifest", "read_case", "write_case"]
+__all__ = ["FORMATS", "read_case", "write_case"]
 
 FORMATS = ("npz", "mat")
-_ABOUT = ("case", "description", "exercises", "tolerance")
+_ABOUT = (
+    "case",
+    "description",
+    "exercises",
+    "tolerance",
+    "conformance_version",
+    "skf_ref_version",
+)
 _ZIP_DATE = (1980, 1, 1, 0, 0, 0)  # the earliest date a zip file can hold
 # the 116 bytes of text that open a MATLAB v5 file; scipy writes the time of writing there
 _MAT_HEADER = b"MATLAB 5.0 MAT-file, skf_ref conformance case".ljust(116)
@@ -108,8 +114,10 @@ def read_case(path):
     for name in ("theta0", "q", "transition"):
         inputs[name] = _scalar_or_square(variables, name, path, n)
     inputs["exponent"] = float(check_array(f"{path}: exponent", variables["exponent"], ()))
-    smoother = _text(variables, "smoother", path)
-    inputs["smoother"] = None if smoother == "none" else smoother
+    try:
+        inputs["smoother"] = check_smoother(_text(variables, "smoother", path))
+    except InputError as err:
+        raise InputError(f"{path}: {err}") from None
     expected = {
         name: readonly(check_array(f"{path}: {name}", variables[name], (n, T)))
         for name in OUTPUTS
@@ -130,88 +138,8 @@ def read_case(path):
         expected=expected,
         extras=extras,
         tolerance=float(check_array(f"{path}: tolerance", variables["tolerance"], ())),
+        conformance_version=int(
+            check_array(f"{path}: version", variables["conformance_version"], ())
+        ),
+        skf_ref_version=_text(variables, "skf_ref_version", path),
     )
-
-
-def manifest(formats=FORMATS):
-    """What :func:`export` writes as ``manifest.json``.
-
-    Parameters
-    ----------
-    formats : sequence of {"npz", "mat"}
-
-    Returns
-    -------
-    dict
-        The set's version, the package's, the tolerance, the variables and their layout
-        and, for each case, its files, what it exercises, what more it holds and its sizes.
-    """
-    return {
-        "conformance_version": CONFORMANCE_VERSION,
-        "skf_ref_version": __version__,
-        "tolerance": TOLERANCE,
-        "tolerance_means": "largest |theirs - expected| over largest |expected|, per output",
-        "layout": {
-            "L": "(n_channels, n_sources)",
-            "Y": "(n_channels, n_times); column t is y_t",
-            "noise_cov, theta0, q, transition": "a scalar c means c times the identity",
-            "smoother": "text: none, rts-standardized or rts-state",
-            "z, z_filtered, x, x_filtered, weights": "(n_sources, n_times)",
-            "log_likelihood": "a scalar",
-        },
-        "inputs": list(INPUTS),
-        "outputs": list(OUTPUTS),
-        "documentation": "docs/conformance.md of the skf_ref repository",
-        "cases": [
-            {
-                "name": case.name,
-                "files": [f"{case.name}.{fmt}" for fmt in formats],
-                "exercises": list(case.exercises),
-                "description": case.description,
-                "also_holds": list(case.extras),
-                "n_channels": case.inputs["L"].shape[0],
-                "n_sources": case.shape[0],
-                "n_times": case.shape[1],
-            }
-            for case in cases()
-        ],
-    }
-
-
-def export(directory, formats=FORMATS):
-    """Write every case in each format, and ``manifest.json``, to ``directory``.
-
-    The files are the same, byte for byte, every time: no dates inside.
-
-    Parameters
-    ----------
-    directory : path-like
-        Created if missing.
-    formats : sequence of {"npz", "mat"}
-
-    Returns
-    -------
-    list of Path
-        The files written, the manifest last.
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> written = export(tempfile.mkdtemp(), formats=["mat"])
-    >>> [path.name for path in written][:2], written[-1].name
-    (['original_skf.mat', 'free_orientation.mat'], 'manifest.json')
-    """
-    for fmt in formats:
-        check_choice("format", fmt, FORMATS)
-    formats = [fmt for fmt in FORMATS if fmt in formats]  # the same files in any order given
-    if not formats:
-        raise InputError(f"formats must name at least one of {list(FORMATS)}, got none")
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    written = [
-        write_case(case, directory / f"{case.name}.{fmt}") for case in cases() for fmt in formats
-    ]
-    path = directory / "manifest.json"
-    with atomic_path(path) as tmp:
-        tmp.write_text(json.dumps(manifest(formats), indent=1) + "\n", encoding="utf-8")
-    return [*written, path]

@@ -2,138 +2,35 @@
 
 :func:`compare` takes a case (:mod:`skf_ref.conformance`) and the outputs of the
 implementation under test ("theirs"): a ``.npz`` or ``.mat`` file holding any of the
-output names, a ``.csv`` long table (below), a mapping of names to arrays, or a
-:class:`~skf_ref.Reconstruction`. For each output given it reports the largest relative
-difference, ``max|theirs - expected| / max|expected|``, the first time step where it
-exceeds the tolerance, and a verdict. When an output disagrees, every known mistake of
-:mod:`skf_ref.conformance.mistakes` that applies to the case is computed, and those that reproduce
-their numbers to the tolerance are named.
+output names, a ``.csv`` long table, a mapping of names to arrays, or a
+:class:`~skf_ref.Reconstruction` (:mod:`skf_ref.conformance.their_outputs`). For each output
+given it reports the largest relative difference, ``max|theirs - expected| / max|expected|``,
+the first time step where it exceeds the tolerance, and a verdict. An output of shape
+(n_times, n_sources) is compared as its transpose and reported as transposed; any other
+shape is refused.
 
-The CSV layout is a long table, one value a line, with the header
-``output,source,step,value``; ``source`` and ``step`` count from 1 (row and column of the
-(n_sources, n_times) array) and are empty for ``log_likelihood``::
+When an output disagrees:
 
-    output,source,step,value
-    z,1,1,0.1728
-    z,2,1,0.7405
-    log_likelihood,,,-14.1373
-
-Every (source, step) of an output it holds must appear exactly once.
+- what the precision of their numbers says (:mod:`skf_ref.conformance.precision`): float32
+  numbers, or a few printed digits, that agree to that precision are told so;
+- every known mistake of :mod:`skf_ref.conformance.mistakes` that applies to the case is
+  computed, and those that reproduce their numbers to the tolerance their precision
+  supports are named. Otherwise the closest mistake is named only when it is closer to
+  their numbers than the expected outputs are.
 """
+
+from functools import lru_cache
 
 import numpy as np
 
-from .._utils.checks import InputError, check_real, describe
+from .._utils.checks import InputError, check_real
 from .case_files import read_case
 from .cases import OUTPUTS, Case
 from .mistakes import SUSPECTS
+from .precision import precision
+from .their_outputs import checked, read_outputs
 
 __all__ = ["Comparison", "compare", "read_outputs"]
-
-_ARRAYS = OUTPUTS[:-1]
-_CSV_HEADER = ["output", "source", "step", "value"]
-
-
-def _read_csv(path):
-    """The arrays of a long-table CSV (see the module docstring), by output name."""
-    import csv
-
-    with open(path, newline="", encoding="utf-8") as stream:
-        lines = list(csv.reader(stream))
-    if not lines or [cell.strip().lower() for cell in lines[0]] != _CSV_HEADER:
-        got = ",".join(lines[0]) if lines else "an empty file"
-        raise InputError(f"{path}: the first line must be output,source,step,value, got {got}")
-    cells = {}
-    for number, line in enumerate(lines[1:], start=2):
-        if not any(cell.strip() for cell in line):
-            continue
-        if len(line) != 4:
-            raise InputError(f"{path}, line {number}: expected 4 fields, got {len(line)}")
-        name, source, step, text = (cell.strip() for cell in line)
-        try:
-            value = float(text)
-            index = () if name == "log_likelihood" else (int(source), int(step))
-        except ValueError:
-            raise InputError(
-                f"{path}, line {number}: expected an output name, two indices counting from 1 "
-                f"(empty for log_likelihood) and a number, got {','.join(line)}"
-            ) from None
-        if min(index, default=1) < 1 or (index == () and (source or step)):
-            raise InputError(f"{path}, line {number}: source and step count from 1, got {line}")
-        if index in cells.setdefault(name, {}):
-            raise InputError(f"{path}, line {number}: {name} {index} appears twice")
-        cells[name][index] = value
-    return {name: _assemble(path, name, entries) for name, entries in cells.items()}
-
-
-def _assemble(path, name, entries):
-    if () in entries:
-        return entries[()]
-    n, T = (max(index[k] for index in entries) for k in (0, 1))
-    if len(entries) != n * T:
-        raise InputError(
-            f"{path}: {name} has {len(entries)} values for sources 1..{n} and steps 1..{T}: "
-            "every (source, step) must appear once"
-        )
-    array = np.empty((n, T))
-    for (s, t), value in entries.items():
-        array[s - 1, t - 1] = value
-    return array
-
-
-def read_outputs(theirs):
-    """Everything ``theirs`` holds, by name, and how to name it in messages.
-
-    Parameters
-    ----------
-    theirs : path-like, mapping or Reconstruction
-        A ``.npz``, ``.mat`` (v5 or v7.3) or long-table ``.csv`` file, a mapping of names
-        to values, or an object with the outputs as attributes.
-
-    Returns
-    -------
-    variables : dict
-    source : str
-    """
-    from collections.abc import Mapping
-    from pathlib import Path
-
-    if isinstance(theirs, Mapping):
-        return dict(theirs), "their outputs"
-    if all(hasattr(theirs, name) for name in OUTPUTS):
-        return {name: getattr(theirs, name) for name in OUTPUTS}, repr(theirs)
-    if not isinstance(theirs, str | Path):
-        raise InputError(
-            f"theirs must be a file, a mapping or a Reconstruction, got {describe(theirs)}"
-        )
-    from ..io.files import read_variables
-
-    path = Path(theirs)
-    if path.suffix == ".csv":
-        if not path.is_file():
-            raise InputError(f"{path}: no such file")
-        return _read_csv(path), str(path)
-    if path.suffix not in (".npz", ".mat"):
-        raise InputError(f"{path}: give their outputs as .npz, .mat or .csv")
-    variables = read_variables(path)
-    return {k: v for k, v in variables.items() if not k.startswith("__")}, str(path)
-
-
-def _checked(name, value, shape, source):
-    """``value`` as a float, or an array of ``shape`` or its transpose; else an error."""
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{source}: {name} must be numbers, got {describe(value)}") from None
-    if name == "log_likelihood":
-        if array.size != 1:
-            raise InputError(f"{source}: log_likelihood must be one number, got {array.shape}")
-        return float(array.reshape(-1)[0])
-    if array.shape not in (shape, shape[::-1]):
-        raise InputError(
-            f"{source}: {name} must have shape {shape} (n_sources, n_times), got {array.shape}"
-        )
-    return array
 
 
 def _steps(value, expected):
@@ -165,16 +62,24 @@ def _row(name, value, expected, tolerance):
     }
 
 
-def _diagnose(case, given, tolerance):
-    """Every suspect that applies: its distance to their numbers and whether it matches."""
+@lru_cache(maxsize=32)
+def _mistaken(case):
+    """Each suspect that applies to the case, with its outputs (computed once per case)."""
     found = []
     for suspect in SUSPECTS:
         try:
             outputs = suspect.compute(case)
         except (InputError, np.linalg.LinAlgError):  # the mistake breaks this case outright
             continue
-        if outputs is None:
-            continue
+        if outputs is not None:
+            found.append((suspect, outputs))
+    return tuple(found)
+
+
+def _diagnose(case, given, tolerance):
+    """Every suspect that applies: its distance to their numbers and whether it matches."""
+    found = []
+    for suspect, outputs in _mistaken(case):
         distance = max(_distance(given[name], outputs[name]) for name in given)
         summary = " ".join(suspect.description.split("\n\n")[0].replace("``", "").split())
         found.append(
@@ -198,7 +103,8 @@ def compare(case, theirs, *, tolerance=None):
     theirs : path-like, mapping or Reconstruction
         Their outputs, any of ``z``, ``z_filtered``, ``x``, ``x_filtered``, ``weights``
         ((n_sources, n_times)) and ``log_likelihood``: a ``.npz``, ``.mat`` or long-table
-        ``.csv`` file (see the module docstring), a mapping, or a Reconstruction.
+        ``.csv`` file (:mod:`skf_ref.conformance.their_outputs`), a mapping, or a
+        Reconstruction.
     tolerance : float, optional
         Largest relative difference that agrees; default the case's own (1e-6).
 
@@ -229,7 +135,7 @@ def compare(case, theirs, *, tolerance=None):
     tolerance = check_real("tolerance", tolerance, positive=True)
     variables, source = read_outputs(theirs)
     given = {
-        name: _checked(name, variables[name], case.shape, source)
+        name: checked(name, variables[name], case.shape, source)
         for name in OUTPUTS
         if name in variables
     }
@@ -239,10 +145,16 @@ def compare(case, theirs, *, tolerance=None):
             f"{sorted(variables)}"
         )
     rows = [_row(name, value, case.expected[name], tolerance) for name, value in given.items()]
-    agrees = all(row["verdict"] == "agrees" for row in rows)
-    suspects = [] if agrees else _diagnose(case, given, tolerance)
     ignored = sorted(set(variables) - set(OUTPUTS))
-    return Comparison(case.name, source, tolerance, rows, suspects, ignored)
+    result = Comparison(case.name, source, tolerance, rows, [], ignored)
+    if not result.agrees:
+        # how far the expected outputs are from theirs, a transposed output counting as far
+        result.difference = max(_distance(given[k], case.expected[k]) for k in given)
+        result.precision = precision(
+            given, max(row["largest_difference"] for row in rows), tolerance
+        )
+        result.suspects = _diagnose(case, given, result.precision.tolerance)
+    return result
 
 
 class Comparison:
@@ -264,11 +176,20 @@ class Comparison:
         ``matches``.
     ignored : list of str
         Names in their file that are not outputs.
+    difference : float or None
+        When something disagrees, the largest relative difference between their numbers and
+        the expected ones (infinite for a transposed output): what a suspect must beat to be
+        called the closest.
+    precision : skf_ref.conformance.precision.Precision or None
+        When something disagrees, what the precision of their numbers says (its ``hint``),
+        and the tolerance the suspects are matched at (their precision's, at least the
+        comparison's).
     """
 
     def __init__(self, case, source, tolerance, rows, suspects, ignored):
         self.case, self.source, self.tolerance = case, source, tolerance
         self.rows, self.suspects, self.ignored = rows, suspects, ignored
+        self.difference, self.precision = None, None
 
     @property
     def agrees(self):
@@ -285,12 +206,28 @@ class Comparison:
         """list of str : The known mistakes that reproduce their numbers."""
         return [suspect["name"] for suspect in self.suspects if suspect["matches"]]
 
+    @property
+    def closest(self):
+        """str or None : The suspect nearest their numbers, if nearer than the expected outputs."""
+        nearest = min(self.suspects, key=lambda suspect: suspect["distance"], default=None)
+        if nearest is None or not nearest["distance"] < self.difference:
+            return None
+        return nearest["name"]
+
+    @property
+    def hint(self):
+        """str or None : What the precision of their numbers says, when something disagrees."""
+        return None if self.precision is None else self.precision.hint
+
     def to_dict(self):
         """dict : Everything, as plain Python values (for JSON)."""
-        keys = ("case", "source", "tolerance", "rows", "suspects", "ignored")
+        keys = ("case", "source", "tolerance", "rows", "suspects", "ignored", "difference")
         return {key: getattr(self, key) for key in keys} | {
             "agrees": self.agrees,
             "diagnosis": self.diagnosis,
+            "closest": None if self.diagnosis else self.closest,
+            "numbers": None if self.precision is None else self.precision.numbers,
+            "hint": self.hint,
         }
 
     def to_frame(self):
@@ -336,7 +273,15 @@ class Comparison:
         wrong = [row["output"] for row in self.rows if row["verdict"] != "agrees"]
         if not wrong:
             return ["AGREES: every output given is within the tolerance."]
+        transposed = [row["output"] for row in self.rows if row["layout"] == "transposed"]
         lines = [f"DISAGREES: {', '.join(wrong)}."]
+        if transposed:
+            lines.append(
+                f"Transposed: {', '.join(transposed)} given as (n_times, n_sources); the "
+                "differences above are those of the transpose."
+            )
+        if self.hint:
+            lines.append(self.hint)
         matches = [suspect for suspect in self.suspects if suspect["matches"]]
         for suspect in matches:
             lines.append(
@@ -345,12 +290,17 @@ class Comparison:
             )
         if len(matches) > 1:
             lines.append("The outputs given cannot tell these apart; give all six.")
-        if not matches:
-            closest = min(self.suspects, key=lambda suspect: suspect["distance"], default=None)
-            lines.append("No known mistake reproduces these numbers.")
-            if closest is not None:
-                lines.append(
-                    f"Closest: {closest['name']}, off by {closest['distance']:.1e}. Checked: "
-                    f"{', '.join(suspect['name'] for suspect in self.suspects)}."
-                )
+        if matches or (self.precision is not None and self.precision.explains):
+            return lines
+        checked_names = ", ".join(suspect["name"] for suspect in self.suspects)
+        lines.append(f"No known mistake reproduces these numbers (checked: {checked_names}).")
+        closest = self.closest
+        if closest is not None:
+            suspect = next(s for s in self.suspects if s["name"] == closest)
+            lines.append(
+                f"Closest: {closest}, off by {suspect['distance']:.1e} where the expected "
+                f"outputs are off by {self.difference:.1e}: {suspect['description']}"
+            )
+        elif self.suspects:
+            lines.append("None comes closer to them than the expected outputs.")
         return lines

@@ -64,21 +64,33 @@ def _outputs(filtered, model, case, smoother=None):
         smoother,
         lambda sequence: dense.rts(sequence, filtered["P_filt"], filtered["P_pred"], A),
         model=model,
-        exponent=case.inputs["exponent"],
+        exponent=filtered["exponent"],
         method="suspect",
     )
     return {**{name: getattr(rec, name) for name in ARRAYS}, "log_likelihood": rec.log_likelihood}
 
 
 def _filtered(case, **changes):
-    """The reference forward pass (``dense.kalman_filter``) with ``changes`` to the inputs."""
+    """The reference forward pass (``dense.kalman_filter``) with ``changes`` to the inputs.
+
+    The model is not checked as :func:`skf_ref.reconstruct` checks it: some mistakes make
+    one it would refuse (a lead field without the data's reference).
+    """
     model, Y = _model(case, **changes)
     L, R, A, Q, P0 = _matrices(model)
-    return dense.kalman_filter(L, Y, R, A, Q, P0, case.inputs["exponent"]), model
+    exponent = changes.get("exponent", case.inputs["exponent"])
+    return dense.kalman_filter(L, Y, R, A, Q, P0, exponent) | {"exponent": exponent}, model
 
 
-def _restandardized(f, w, whitening, exponent):
+def _rerun(case, **changes):
+    """The reference computation on the case with ``changes`` to its inputs."""
+    f, model = _filtered(case, **changes)
+    return _outputs(f, model, case)
+
+
+def _restandardized(f, w, whitening):
     """``f`` with ``z_t = Diag(w_t ** -alpha) whitening_t x_{t|t}`` (§2.2 eqs. (6)-(7))."""
+    exponent = f["exponent"]
     weights, z = standardize(w, np.einsum("tij,tj->ti", whitening, f["x_filt"]), exponent)
     return {**f, "w": w, "P_pred_inv_sqrt": whitening, "weights": weights, "z": z}
 
@@ -94,6 +106,20 @@ def _posterior_weights(f):
     return np.einsum("tij,tjk,tik->ti", whitening, gain, whitening), whitening
 
 
+def _toolbox_weights(f, R, L):
+    """``w_t = diag(B^T (B B^T + R)^{-1} B)`` with ``B = L P_{t|t}^{1/2}`` (the toolbox's form).
+
+    With ``P_{t|t-1}`` in ``B`` this is §2.2 eq. (7) (docs/model.md §2, "Two identities"); with
+    the updated ``P_{t|t}`` it is not.
+    """
+    w = np.empty(f["w"].shape)
+    for t, P in enumerate(f["P_filt"]):
+        values, vectors = np.linalg.eigh(P)
+        B = L @ ((vectors * np.sqrt(np.clip(values, 0, None))) @ vectors.T)
+        w[t] = np.einsum("ji,ji->i", B, np.linalg.solve(B @ B.T + R, B))
+    return w
+
+
 def transposed(case):
     """The outputs as (n_times, n_sources): time-major, as filters compute them inside."""
     return {
@@ -105,7 +131,7 @@ def posterior_in_weights(case):
     """§2.2 eq. (7) with ``P_{t|t}`` for ``P_{t|t-1}``: the weights from the updated covariance."""
     f, model = _filtered(case)
     w, _ = _posterior_weights(f)
-    f = _restandardized(f, w, f["P_pred_inv_sqrt"], case.inputs["exponent"])
+    f = _restandardized(f, w, f["P_pred_inv_sqrt"])
     return _outputs(f, model, case)
 
 
@@ -113,7 +139,7 @@ def posterior_in_whitening(case):
     """§2.2 eq. (6) with ``P_{t|t}^{-1/2} x_{t|t}``: whitened by the updated covariance."""
     f, model = _filtered(case)
     _, whitening = _posterior_weights(f)
-    f = _restandardized(f, f["w"], whitening, case.inputs["exponent"])
+    f = _restandardized(f, f["w"], whitening)
     return _outputs(f, model, case)
 
 
@@ -121,15 +147,53 @@ def posterior_in_both(case):
     """§2.2 eqs. (6) and (7) with ``P_{t|t}`` for ``P_{t|t-1}`` in weights and whitening."""
     f, model = _filtered(case)
     w, whitening = _posterior_weights(f)
-    f = _restandardized(f, w, whitening, case.inputs["exponent"])
+    f = _restandardized(f, w, whitening)
+    return _outputs(f, model, case)
+
+
+def posterior_weights_toolbox_form(case):
+    """§2.2 eq. (7) as ``diag(B' (B B' + R)^-1 B)``, ``B = L P_{t|t}^{1/2}``: the toolbox's form
+    with the updated covariance.
+
+    The toolbox writes the weights in this form, which equals §2.2 eq. (7) only with the
+    predicted ``P_{t|t-1}`` in ``B``.
+    """
+    f, model = _filtered(case)
+    w = _toolbox_weights(f, model.R, model.L)
+    f = _restandardized(f, w, f["P_pred_inv_sqrt"])
+    return _outputs(f, model, case)
+
+
+def standardized_after_update(case):
+    """§2.2 eqs. (6)-(7) computed after the update, from ``P_{t|t}`` as if it were
+    ``P_{t|t-1}``.
+
+    ``w_t = diag(B' (B B' + R)^-1 B)`` with ``B = L P_{t|t}^{1/2}`` and
+    ``z_t = W_t P_{t|t}^{-1/2} x_{t|t}``: the standardization placed after the update, where
+    the covariance at hand is ``P_{t|t}``, instead of on ``P_{t|t-1}``.
+    """
+    f, model = _filtered(case)
+    w = _toolbox_weights(f, model.R, model.L)
+    whitening = np.array([inverse_sqrt(P) for P in f["P_filt"]])
+    f = _restandardized(f, w, whitening)
     return _outputs(f, model, case)
 
 
 def exponent_on_square_root(case):
     """§2.2 eq. (7) as ``(w_t ** 1/2) ** -alpha``: the exponent on the square root of ``w_t``."""
     f, model = _filtered(case)
-    f = _restandardized(f, np.sqrt(f["w"]), f["P_pred_inv_sqrt"], case.inputs["exponent"])
+    f = _restandardized(f, np.sqrt(f["w"]), f["P_pred_inv_sqrt"])
     return _outputs(f, model, case)
+
+
+def exponent_fixed_at_half(case):
+    """§2.2 eq. (7) as ``w_t ** -0.5`` whatever the exponent: the original SKF's, hard-wired."""
+    return None if case.inputs["exponent"] == 0.5 else _rerun(case, exponent=0.5)
+
+
+def exponent_dropped(case):
+    """§2.2 eq. (7) as ``1 / w_t``: the exponent left out (as if it were 1)."""
+    return None if case.inputs["exponent"] == 1 else _rerun(case, exponent=1.0)
 
 
 def other_smoother(case):
@@ -152,8 +216,36 @@ def other_convention(case):
     theta0, q = priors_from_snr(
         case.inputs["L"], e["noise_std"], e["pm_snr_db"], e["ep_snr_db"], case.shape[1], other
     )
-    f, model = _filtered(case, theta0=theta0, q=q)
-    return _outputs(f, model, case)
+    return _rerun(case, theta0=theta0, q=q)
+
+
+def noise_std_as_variance(case):
+    """``R = sigma I`` instead of ``sigma**2 I``: the noise standard deviation where the
+    variance belongs.
+
+    A scalar ``noise_cov`` in a case is the variance ``c`` (``R = c I``); this is the
+    implementation that takes ``sqrt(c) I``.
+    """
+    c = case.inputs["noise_cov"]
+    return None if np.ndim(c) or c == 1 else _rerun(case, noise_cov=np.sqrt(c))
+
+
+def noise_variance_as_std(case):
+    """``R = c**2 I`` from a scalar ``noise_cov = c``: the variance taken for a standard deviation.
+
+    What ``reconstruct(..., noise_std=noise_cov)`` computes: a case's scalar ``noise_cov``
+    is already the variance.
+    """
+    c = case.inputs["noise_cov"]
+    return None if np.ndim(c) or c == 1 else _rerun(case, noise_cov=c**2)
+
+
+def transition_ignored(case):
+    """§2.2 eq. (4) with ``A = I`` whatever the transition (the toolbox: any diagonal ``A``)."""
+    A = case.inputs["transition"]
+    if np.array_equal(A, np.eye(case.shape[0]) if np.ndim(A) else 1.0):
+        return None
+    return _rerun(case, transition=1.0)
 
 
 def no_first_prediction(case):
@@ -164,7 +256,7 @@ def no_first_prediction(case):
     f = {key: np.empty((T, n)) for key in ("x_filt", "x_pred", "z", "w", "weights")}
     for key in ("P_filt", "P_pred", "P_pred_inv_sqrt"):
         f[key] = np.empty((T, n, n))
-    f["log_likelihood"] = 0.0
+    f["log_likelihood"], f["exponent"] = 0.0, case.inputs["exponent"]
     x_pred, P_pred = np.zeros(n), P0  # the mistake: the first update takes P_0 as P_{1|0}
     for t in range(T):
         x, P, K, S, log_likelihood = dense.update(x_pred, P_pred, Y[:, t], L, R)
@@ -184,17 +276,13 @@ def extra_first_prediction(case):
     """§2.2 eq. (4) applied twice before ``t = 1``: ``P_{1|0} = A (A P_0 A^T + Q) A^T + Q``."""
     model, _ = _model(case)
     _, _, A, Q, P0 = _matrices(model)
-    f, model = _filtered(case, theta0=A @ P0 @ A.T + Q)
-    return _outputs(f, model, case)
+    return _rerun(case, theta0=A @ P0 @ A.T + Q)
 
 
 def missing_average_reference(case):
     """``L`` without the average reference of the data (docs/model.md §1, "Reference")."""
     L = case.extras.get("L_unreferenced")
-    if L is None:
-        return None
-    f, model = _filtered(case, L=L)
-    return _outputs(f, model, case)
+    return None if L is None else _rerun(case, L=L)
 
 
 #: Every known mistake, in the order the report lists them.
@@ -205,9 +293,16 @@ SUSPECTS = tuple(
         posterior_in_weights,
         posterior_in_whitening,
         posterior_in_both,
+        posterior_weights_toolbox_form,
+        standardized_after_update,
         exponent_on_square_root,
+        exponent_fixed_at_half,
+        exponent_dropped,
         other_smoother,
         other_convention,
+        noise_std_as_variance,
+        noise_variance_as_std,
+        transition_ignored,
         no_first_prediction,
         extra_first_prediction,
         missing_average_reference,

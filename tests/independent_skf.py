@@ -1,0 +1,157 @@
+"""An SKF written from docs/model.md alone, as another lab would write it: the tests' outsider.
+
+Nothing here comes from ``skf_ref``'s computations: plain numpy in one loop, with every
+catalogued mistake (``skf_ref.conformance.mistakes``) available as a switch, so that the
+tests can show that an implementation making a mistake fails a case and hears its name,
+and with a ``dtype`` switch, so that they can show what a single-precision implementation
+is told. ``run_case`` applies it to a conformance case the way docs/conformance.md tells a
+user to (a scalar ``noise_cov``, ``theta0``, ``q`` or ``transition`` is that number times
+the identity).
+"""
+
+import numpy as np
+
+from skf_ref import priors_from_snr
+
+OUTPUTS = ("z", "z_filtered", "x", "x_filtered", "weights", "log_likelihood")
+_POSTERIOR = (
+    "posterior_in_weights",
+    "posterior_in_whitening",
+    "posterior_in_both",
+    "posterior_weights_toolbox_form",
+    "standardized_after_update",
+)
+
+
+def _sqrt_and_inverse(P):
+    """``P^{1/2}`` and ``P^{-1/2}``, symmetric (docs/model.md §2, "The inverse square root")."""
+    values, vectors = np.linalg.eigh(P)
+    values = np.clip(values, 0, None)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (vectors * np.sqrt(values)) @ vectors.T, (vectors / np.sqrt(values)) @ vectors.T
+
+
+def _diag_quadratic(M, S):
+    """``diag(M S M^T)``."""
+    return np.einsum("ij,jk,ik->i", M, S, M)
+
+
+def skf(L, Y, R, A, Q, P0, exponent, smoother, *, mistake=None, dtype=np.float64):
+    """The SKF of docs/model.md §2-§3; ``mistake`` names a catalogued mistake to make.
+
+    Returns a dict of the six outputs, arrays (n_sources, n_times), in ``dtype``.
+    """
+    L, Y, R, A, Q, P0 = (np.asarray(v, dtype=dtype) for v in (L, Y, R, A, Q, P0))
+    smoother = None if smoother == "none" else smoother
+    alpha = {"exponent_fixed_at_half": 0.5, "exponent_dropped": 1.0}.get(mistake, exponent)
+    alpha = dtype(alpha)
+    if mistake == "transition_ignored":
+        A = np.eye(len(A), dtype=dtype)
+    if mistake == "extra_first_prediction":
+        P0 = A @ P0 @ A.T + Q
+    m, n, T = *L.shape, Y.shape[1]
+    x, P, log_likelihood = np.zeros(n, dtype), P0, dtype(0)
+    keep = {key: [] for key in ("x", "P", "P_pred", "whitening", "w", "weights", "z")}
+    for t in range(T):
+        if t == 0 and mistake == "no_first_prediction":
+            x_pred, P_pred = x, P
+        else:
+            x_pred, P_pred = A @ x, A @ P @ A.T + Q
+        S = L @ P_pred @ L.T + R
+        K = np.linalg.solve(S, L @ P_pred).T
+        e = Y[:, t] - L @ x_pred
+        x = x_pred + K @ e
+        P = P_pred - K @ S @ K.T
+        log_likelihood += -0.5 * (
+            m * np.log(dtype(2 * np.pi)) + np.linalg.slogdet(S)[1] + e @ np.linalg.solve(S, e)
+        )
+        _, whitening = _sqrt_and_inverse(P_pred)
+        w = _diag_quadratic(whitening @ K, S)
+        if mistake in _POSTERIOR:
+            root_post, whitening_post = _sqrt_and_inverse(P)
+        if mistake in ("posterior_in_weights", "posterior_in_both"):
+            w = _diag_quadratic(whitening_post @ K, S)
+        if mistake in ("posterior_weights_toolbox_form", "standardized_after_update"):
+            B = L @ root_post  # diag(B' (B B' + R)^-1 B) with P_{t|t}
+            w = np.einsum("ji,ji->i", B, np.linalg.solve(B @ B.T + R, B))
+        if mistake in ("posterior_in_whitening", "posterior_in_both", "standardized_after_update"):
+            whitening = whitening_post
+        if mistake == "exponent_on_square_root":
+            w = np.sqrt(w)
+        weights = w**-alpha
+        z = weights * (whitening @ x)
+        for key, value in dict(x=x, P=P, P_pred=P_pred, whitening=whitening).items():
+            keep[key].append(value)
+        for key, value in dict(w=w, weights=weights, z=z).items():
+            keep[key].append(value)
+    x_filtered, z_filtered = np.array(keep["x"]), np.array(keep["z"])
+    smoother = (
+        {"rts-state": "rts-standardized", "rts-standardized": "rts-state"}.get(smoother, smoother)
+        if mistake == "other_smoother"
+        else smoother
+    )
+    x_out, z_out = x_filtered, z_filtered
+    if smoother is not None:
+        sequence = z_filtered if smoother == "rts-standardized" else x_filtered
+        s = sequence.copy()
+        for t in range(T - 2, -1, -1):
+            G = keep["P"][t] @ A.T @ np.linalg.inv(keep["P_pred"][t + 1])
+            s[t] = sequence[t] + G @ (s[t + 1] - A @ sequence[t])
+        if smoother == "rts-standardized":
+            z_out = s
+        else:
+            x_out = s
+            z_out = np.array(keep["weights"]) * np.einsum("tij,tj->ti", keep["whitening"], s)
+    outputs = dict(
+        z=z_out.T,
+        z_filtered=z_filtered.T,
+        x=x_out.T,
+        x_filtered=x_filtered.T,
+        weights=np.array(keep["weights"]).T,
+        log_likelihood=log_likelihood,
+    )
+    if mistake == "transposed":
+        outputs = {key: np.transpose(value) for key, value in outputs.items()}
+    return outputs
+
+
+def run_case(case, *, mistake=None, dtype=np.float64):
+    """Run :func:`skf` on a conformance case as docs/conformance.md describes.
+
+    The mistakes about the inputs happen here: the other prior convention, the lead field
+    without its average reference, the noise standard deviation and variance confused.
+    Returns None when the mistake cannot happen in this case.
+    """
+    p = dict(case.inputs)
+    L, m, n = p["L"], *p["L"].shape
+    c = p["noise_cov"]
+    if mistake in ("noise_std_as_variance", "noise_variance_as_std"):
+        if np.ndim(c) or c == 1:
+            return None
+        c = np.sqrt(c) if mistake == "noise_std_as_variance" else c**2
+    R = c * np.eye(m) if np.ndim(c) == 0 else c
+    A, Q, P0 = (
+        p[k] * np.eye(n) if np.ndim(p[k]) == 0 else p[k] for k in ("transition", "q", "theta0")
+    )
+    if mistake == "other_convention":
+        e = case.extras
+        if "convention" not in e:
+            return None
+        other = "toolbox" if e["convention"] == "gain" else "gain"
+        theta0, q = priors_from_snr(
+            L, e["noise_std"], e["pm_snr_db"], e["ep_snr_db"], case.shape[1], other
+        )
+        Q, P0 = q * np.eye(n), theta0 * np.eye(n)
+    if mistake == "missing_average_reference":
+        if "L_unreferenced" not in case.extras:
+            return None
+        L = case.extras["L_unreferenced"]
+    inapplicable = {
+        "other_smoother": p["smoother"] is None,
+        "transition_ignored": np.array_equal(A, np.eye(n)),
+        "exponent_fixed_at_half": p["exponent"] == 0.5,
+        "exponent_dropped": p["exponent"] == 1,
+    }
+    if inapplicable.get(mistake, False):
+        return None
+    return skf(L, p["Y"], R, A, Q, P0, p["exponent"], p["smoother"], mistake=mistake, dtype=dtype)
