@@ -38,6 +38,7 @@ source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 exclude_patterns = ["_build", "sphinxext", "examples"]
 templates_path = ["_templates"]
 root_doc = "index"
+smartquotes = False  # "--flag" stays two hyphens, in the command line's help above all
 highlight_language = "default"  # python where it parses, plain text (formulas) otherwise
 
 # The API reference: one page per top-level name, one per public module (docs/api.rst).
