@@ -14,7 +14,7 @@ sys.path.insert(0, str(HERE.parent))  # the checkout's skf_ref, as pytest uses i
 sys.path.insert(0, str(HERE / "sphinxext"))
 os.environ.setdefault("MPLBACKEND", "Agg")
 
-from skf_docs import api_pages  # noqa: E402
+from skf_docs import api_pages, top_level_data  # noqa: E402
 
 import skf_ref  # noqa: E402
 
@@ -44,7 +44,7 @@ highlight_language = "default"  # python where it parses, plain text (formulas) 
 # The API reference: one page per top-level name, one per public module (docs/api.rst).
 API_PAGES, skf_aliases = api_pages()
 autosummary_generate = True
-autosummary_context = {"api_pages": API_PAGES}
+autosummary_context = {"api_pages": API_PAGES, "top_level_data": top_level_data()}
 autodoc_typehints = "none"  # the docstrings give the types, with shapes
 autodoc_member_order = "bysource"
 autodoc_inherit_docstrings = False  # filterpy's own docstrings are not ours to render

@@ -130,6 +130,33 @@ def api_pages(package=PACKAGE):
     return pages, aliases
 
 
+def top_level_data(package=PACKAGE):
+    """The package's exported constants: dotted name -> (repr of the value, its doc lines).
+
+    autodoc looks for a constant's ``#:`` comment in the module it is documented from,
+    ``skf_ref`` itself, which only loads it from its home (``skf_ref.method.settings``);
+    the comment is read from the home here.
+    """
+    from sphinx.pycode import ModuleAnalyzer
+
+    top = importlib.import_module(package)
+    found = {}
+    for name in top.__all__:
+        value = getattr(top, name)
+        if _kind(value) != "data":
+            continue
+        home = next(  # the module that assigns it, not one that imports it
+            module
+            for module in public_modules(package)
+            if module != package
+            and getattr(importlib.import_module(module), name, None) is value
+            and name not in _imported_from(importlib.import_module(module))
+        )
+        docs = ModuleAnalyzer.for_module(home).find_attr_docs().get(("", name), [])
+        found[f"{package}.{name}"] = (repr(value), [line for line in docs if line])
+    return found
+
+
 def _role(obj):
     return {"class": "class", "exception": "exc", "function": "func", "data": "data"}[_kind(obj)]
 
