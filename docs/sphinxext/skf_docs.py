@@ -113,6 +113,8 @@ def api_pages(package=PACKAGE):
         for name, default in page["elsewhere"]:
             obj = getattr(module, name)
             target = homes.get(id(obj), default)
+            if not target.endswith(f".{name}"):  # a small int or string shared by chance
+                target = default
             resolved.append((name, target, _role(obj)))
             aliases[f"{modname}.{name}"] = target
         page["elsewhere"] = resolved
