@@ -8,7 +8,7 @@ written out in docs/model.md. The original SKF is Lahtinen et al., Clin. Neuroph
 
 The package in layers, each importing only those listed before it:
 
-- :mod:`skf_ref._utils`: private helpers (input checks, atomic files, memory, provenance,
+- ``skf_ref._utils``: private helpers (input checks, atomic files, memory, provenance,
   the log);
 - :mod:`skf_ref.method`: the SKF itself in numpy, scipy and filterpy: :func:`reconstruct`,
   its three paths, the result type, the priors and their tuning, the standardization;

@@ -145,7 +145,7 @@ def _edge(excess, solved_pm, unsolved_pm, ep_end):
 
 
 def roots(f, low, high):
-    """Where ``f`` changes sign in each bracket ``[low, high]``, to :data:`ROOT_TOL_DB`.
+    """Where ``f`` changes sign in each bracket ``[low, high]``, to ``ROOT_TOL_DB``.
 
     Regula falsi with the Illinois modification, all brackets at once: like bisection, each
     step keeps a sign change inside the bracket, so it cannot leave it, but the brackets

@@ -73,7 +73,9 @@ class Reconstruction:
     that asking for ``z`` at 150 000 sources does not also materialize four other arrays
     of the same size). Printing a reconstruction never computes one. No array or scalar is
     ever non-finite: a reconstruction that would overflow raises
-    :class:`~skf_ref.InputError` saying which parameter or scale is out of range.
+    :class:`~skf_ref.InputError` saying which parameter or scale is out of range. A
+    reconstruction never changes once made: its attributes cannot be set, and
+    :meth:`with_tuning` returns a new one.
 
     Attributes
     ----------
@@ -102,9 +104,6 @@ class Reconstruction:
         The model's ``P_0``, ``Q`` and ``A`` as given (a scalar ``c`` means ``c I``).
     tuning : skf_ref.method.tuning.TuneResult or None
         When the priors were chosen by the data (``"auto"``), how.
-
-    A reconstruction never changes once made: its attributes cannot be set, and
-    :meth:`with_tuning` returns a new one.
     """
 
     _ARRAYS = ARRAYS

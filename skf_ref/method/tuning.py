@@ -11,7 +11,7 @@ grid of priors costs little more than one reconstruction.
 A searched SNR chosen on (within :data:`BOUND_TOL_DB` of) an end of its range is reported:
 the criterion would have gone further, so the range, not the data, made the choice.
 :func:`tune` then warns (``UserWarning``) naming the parameter and the bound, and
-:attr:`TuneResult.at_bound` records it.
+``at_bound`` of the :class:`TuneResult` records it.
 """
 
 import math
@@ -154,7 +154,7 @@ def tune(
 
     A searched SNR chosen within :data:`BOUND_TOL_DB` of an end of its range raises a
     ``UserWarning`` that names it and the bound (widen the range to let the criterion
-    decide), and is listed in :attr:`TuneResult.at_bound`. A fixed SNR never warns.
+    decide), and is listed in the result's ``at_bound``. A fixed SNR never warns.
 
     Parameters
     ----------

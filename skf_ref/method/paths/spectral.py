@@ -9,7 +9,7 @@ live in :mod:`skf_ref.method.paths.singular_basis`; this module forms the n-dime
 from them.
 
 Why it equals the dense recursion, equation by equation (docs/model.md §2-3)
----------------------------------------------------------------------------
+----------------------------------------------------------------------------
 **Whitening.** With ``R = C C^T`` (Cholesky), ``L~ = C^{-1} L``, ``y~ = C^{-1} y`` and noise
 covariance I give the same means and covariances: ``S~ = C^{-1} S C^{-T}`` and
 ``K~ = K C``, so ``K S K^T = K~ S~ K~^T`` and the weights §2.2 (7) are unchanged. The

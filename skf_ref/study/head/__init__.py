@@ -4,13 +4,13 @@ Two conductors and two source spaces, all returning a :class:`HeadModel` (lead f
 positions, MNE objects and an :class:`Anatomy`):
 
 - :func:`make_head_model`: MNE's sphere fitted to a montage with a regular grid filling its
-  brain compartment (the first release's head; :mod:`skf_ref.study.head._sphere` explains the
+  brain compartment (the first release's head; ``skf_ref/study/head/_sphere.py`` explains the
   grid).
 - :func:`make_sphere_head`: the sphere with either source space; ``"anatomical"`` is the
   sphere's nearest equivalent of cortex + thalamus.
 - :func:`make_realistic_head`: MNE's "sample" subject from MNE's testing dataset, a
   three-layer BEM, and either a grid filling the inner skull or cortex + thalamus from its
-  ``aseg.mgz`` (:mod:`skf_ref.study.head._bem`). Its forward models are cached on disk
+  ``aseg.mgz`` (``skf_ref/study/head/_bem.py``). Its forward models are cached on disk
   (:func:`cache_dir`), and the dataset is never downloaded (:func:`find_testing_data`).
 - :func:`make_head`: any of the four cells of conductor x source space by name.
 

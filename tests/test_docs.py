@@ -1,0 +1,133 @@
+"""The documentation site cannot rot: its pages' examples run, every public name and every
+command has a page, its tables are the code's, and the citation metadata agree.
+
+Nothing here needs Sphinx: the pages are read as text (the site itself is built, warnings as
+errors, by README's docs command in .ci/run).
+"""
+
+import argparse
+import doctest
+import importlib
+import pkgutil
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+import skf_ref
+from skf_ref.cli import build_parser
+from skf_ref.study import metrics
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+# Pages whose examples are doctests (```pycon blocks); model.md has its own runner
+# (tests/test_model_doc.py) and conformance.md shows shell and MATLAB, not Python.
+PAGES_WITH_EXAMPLES = ("getting_started.md", "choosing.md", "scale.md")
+# At least this many executed examples in the gallery (issue 25).
+MIN_GALLERY = 6
+
+
+def _pages():
+    return sorted(p for p in DOCS.glob("*") if p.suffix in (".md", ".rst"))
+
+
+@pytest.mark.parametrize("name", PAGES_WITH_EXAMPLES)
+def test_page_examples_run_as_written(name, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the examples write files
+    result = doctest.testfile(
+        str(DOCS / name),
+        module_relative=False,
+        optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE,
+    )
+    assert result.attempted > 0 and result.failed == 0, result
+
+
+def test_every_page_with_python_examples_is_run():
+    with_examples = {p.name for p in _pages() if re.search(r"^>>> ", p.read_text(), re.M)}
+    assert with_examples == set(PAGES_WITH_EXAMPLES)
+
+
+def _autosummary_entries(text):
+    """The names listed under every ``.. autosummary::`` directive of an .rst text."""
+    names = []
+    for block in re.findall(r"^\.\. autosummary::\n((?:   .*\n|\n)+)", text, re.M):
+        names += [line.strip() for line in block.splitlines() if re.match(r"   [\w.]+$", line)]
+    return names
+
+
+def _public_modules():
+    names = ["skf_ref"]
+    for info in pkgutil.walk_packages(skf_ref.__path__, "skf_ref."):
+        if not any(part.startswith("_") for part in info.name.split(".")):
+            names.append(info.name)
+    return names
+
+
+def test_every_public_name_and_module_has_a_page():
+    listed = set(_autosummary_entries((DOCS / "api.rst").read_text()))
+    assert {f"skf_ref.{name}" for name in skf_ref.__all__} <= listed
+    assert set(_public_modules()) <= listed
+
+
+def test_every_name_a_module_page_links_to_is_documented():
+    sys.path.insert(0, str(DOCS / "sphinxext"))
+    try:
+        skf_docs = importlib.import_module("skf_docs")
+    finally:
+        sys.path.remove(str(DOCS / "sphinxext"))
+    pages, aliases = skf_docs.api_pages()
+    documented = {f"skf_ref.{name}" for name in skf_ref.__all__}
+    for module, page in pages.items():
+        documented |= {f"{module}.{name}" for name, _ in page["here"]}
+    for module, page in pages.items():
+        here = {name for name, _ in page["here"]}
+        elsewhere = {name for name, _, _ in page["elsewhere"]}
+        assert here | elsewhere == set(getattr(importlib.import_module(module), "__all__", []))
+        for name, target, _ in page["elsewhere"]:
+            assert target in documented, f"{module}.{name} links to {target}, which has no page"
+    assert set(aliases.values()) <= documented
+
+
+def _subcommands(parser, prefix=()):
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield " ".join((*prefix, name))
+                yield from _subcommands(sub, (*prefix, name))
+
+
+def test_every_command_has_a_section():
+    text = (DOCS / "cli.rst").read_text()
+    documented = set(re.findall(r"^   :path: (.+)$", text, re.M))
+    leaves = {path for path in _subcommands(build_parser())}
+    leaves -= {path for path in leaves if any(o.startswith(path + " ") for o in leaves)}
+    assert leaves == documented  # "conformance" alone has no options: its action does
+
+
+def test_metrics_table_is_the_code_s():
+    text = (DOCS / "study.md").read_text()
+    rows = re.findall(r"^\| `(\w+)` \| (.+?) \| (.+?) \| (.+?) \|$", text, re.M)
+    rows = [tuple(cell.replace("\\|", "|") for cell in row) for row in rows]
+    assert rows == [tuple(column) for column in metrics.COLUMNS]
+
+
+def test_gallery_has_its_examples():
+    examples = sorted((DOCS / "examples").glob("plot_*.py"))
+    assert len(examples) >= MIN_GALLERY
+    for path in examples:
+        title = path.read_text().split('"""')[1].strip().splitlines()
+        assert len(title) >= 2 and set(title[1]) == {"="}, f"{path.name} has no title"
+
+
+def test_citation_metadata_agree():
+    cff = (ROOT / "CITATION.cff").read_text()
+    assert re.search(r"^cff-version: 1\.2\.0$", cff, re.M)
+    assert re.search(rf"^version: {re.escape(skf_ref.__version__)}$", cff, re.M)
+    titles = re.findall(r'^    title: "(.+)"$', cff, re.M)
+    assert len(titles) == 2
+    citing = " ".join((DOCS / "citing.md").read_text().split())
+    for title in titles:
+        assert title in citing, title
+    assert "license = BSD-3-Clause" in (ROOT / "setup.cfg").read_text()
+    assert (ROOT / "LICENSE").read_text().startswith("BSD 3-Clause License")
