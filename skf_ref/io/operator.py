@@ -102,10 +102,12 @@ class SKFOperator:
         self.whitener, self.rank, self.forward = whitener, len(whitener), forward
         self.n_components = 1 if fixed else 3
         self.pm_snr_db, self.ep_snr_db = pm, ep
-        L = np.asarray(forward["sol"]["data"], dtype=float)
-        self.leadfield = check_leadfield(whitener @ L, "the whitened forward")
+        leadfield = whitener @ np.asarray(forward["sol"]["data"], dtype=float)
+        if not np.all(np.isfinite(leadfield)):
+            raise InputError("the whitened forward is not finite: noise_cov is out of range")
+        self.leadfield = check_leadfield(leadfield, "the whitened forward")
         self._basis = SpectralBasis(self.leadfield, np.eye(self.rank))
-        self._models = collections.OrderedDict()
+        self._models, self._prior_cache = collections.OrderedDict(), {}
         self.eeg_names = [name for name in self.ch_names if channel_kind(info, name) == "eeg"]
 
     @property
@@ -123,6 +125,14 @@ class SKFOperator:
             f"PM-SNR and EP-SNR {priors}>"
         )
 
+    def _priors(self, n_times):
+        """``theta0, q`` of the operator's SNRs for ``n_times`` samples (docs/model.md §4)."""
+        if n_times not in self._prior_cache:
+            self._prior_cache[n_times] = priors_from_snr(
+                self.leadfield, 1.0, self.pm_snr_db, self.ep_snr_db, n_times
+            )
+        return self._prior_cache[n_times]
+
     def _model(self, n_times, theta0, q):
         """The spectral model for ``n_times`` samples and these priors; the last few kept."""
         key = (n_times, theta0, q)
@@ -130,7 +140,8 @@ class SKFOperator:
             model = StateSpaceModel.create(self.leadfield, noise_std=1.0, theta0=theta0, q=q)
             self._models[key] = SpectralModel(model, n_times, basis=self._basis)
             while len(self._models) > _MODELS_KEPT:
-                self._models.popitem(last=False)
+                self._models.popitem(last=False)  # the least recently used
+        self._models.move_to_end(key)
         return self._models[key]
 
     def check_pick_ori(self, pick_ori):
@@ -187,10 +198,11 @@ class SKFOperator:
                 f"{name}.data must have shape ({len(info.ch_names)}, n_times) (the channels of "
                 f"its info), got {data.shape}"
             )
+        index = [info.ch_names.index(c) for c in self.ch_names]
+        picked = check_array(f"{name}.data", data[index], (len(index), "n_times"))
         if self.eeg_names:
             check_reference(info, data, name)
-        index = [info.ch_names.index(c) for c in self.ch_names]
-        return check_array(f"{name}.data", data[index], (len(index), "n_times"))
+        return picked
 
     def reconstruct(self, data, *, exponent=0.5, smoother=None, method="auto", memory_limit=None):
         """The SKF on data of the operator's channels (in ``ch_names`` order).
@@ -211,6 +223,7 @@ class SKFOperator:
         skf_ref.Reconstruction
             In whitened units; ``tuning`` says what ``"auto"`` chose.
         """
+        data = check_array("data", data, (len(self.ch_names), "n_times"))
         exponent = check_real("exponent", exponent, nonnegative=True)
         smoother = check_smoother(smoother)
         check_choice("method", method, METHODS)
@@ -228,7 +241,7 @@ class SKFOperator:
             )
         else:
             tuning = None
-            theta0, q = priors_from_snr(self.leadfield, 1.0, self.pm_snr_db, self.ep_snr_db, T)
+            theta0, q = self._priors(T)
         if method in ("auto", "spectral"):  # the operator's SVD (and recursions) again
             budget = memory.available_memory() / 2 if memory_limit is None else memory_limit
             needed = memory.spectral_memory(n, self.rank, T)
@@ -272,6 +285,7 @@ def make_skf_operator(
     ep_snr_db=20.0,
     meg=False,
     eeg=True,
+    rank=None,
     verbose=None,
 ):
     """Prepare the SKF for data of one info, a forward and a noise covariance.
@@ -303,6 +317,11 @@ def make_skf_operator(
         Use MEG channels: all, or magnetometers or gradiometers only (``mne.pick_types``).
     eeg : bool
         Use EEG channels.
+    rank : None or "info" or "full" or dict
+        The noise covariance's rank, as MNE's ``make_inverse_operator`` takes it: None
+        estimates it from the covariance; ``"info"`` reads it from the info, which is right
+        for Maxwell-filtered (SSS) MEG, whose covariance has far fewer real dimensions than
+        channels.
     verbose : bool or str or int, optional
         The "skf_ref" log's level for this call: the channels used and left out are logged
         at INFO.
@@ -345,15 +364,15 @@ def make_skf_operator(
             average = mne.create_info(eeg_used, picked["sfreq"], "eeg")
             picked["projs"].append(make_eeg_average_ref_proj(average, False, verbose=False))
         check_noise_covariance(covariance, picked, used)
-        whitener = compute_whitener(covariance, picked, picks=used, pca=True, verbose=False)[0]
+        whitener = compute_whitener(
+            covariance, picked, picks=used, rank=rank, pca=True, verbose=False
+        )[0]
         forward = mne.pick_channels_forward(forward, used, ordered=True, verbose=False)
         fixed = mne.forward.is_fixed_orient(forward)
         if not fixed:  # MNE's x, y, z per position, head coordinates
             forward = mne.convert_forward_solution(
                 forward, surf_ori=False, force_fixed=False, copy=True, verbose=False
             )
-        if not np.all(np.isfinite(whitener @ np.asarray(forward["sol"]["data"], float))):
-            raise InputError("the whitened forward is not finite: noise_cov is out of range")
         operator = SKFOperator(
             info=picked,
             ch_names=used,
