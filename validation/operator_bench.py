@@ -23,8 +23,9 @@ path sees the same load, and each round gives one ratio to MNE's time: the table
 medians and interquartile ranges over the rounds, of wall time, of process CPU time (both
 cores' work) and of the ratios. Every row records the BLAS threads (threadpoolctl) and the
 load average before and after. ``--profile`` adds where an SKF application spends its
-time (cProfile, the largest cumulative entries). Results go to ``DIR/operator.md`` and
-``DIR/operator.csv``.
+time: each stage timed on its own, and cProfile's largest cumulative entries. Results go
+to ``DIR/operator.md`` and ``DIR/operator.csv`` (``operator-blasN.*`` with
+``--blas-threads N``).
 """
 
 import argparse
@@ -120,7 +121,11 @@ def make_runners(evoked, forward, noise_cov):
         return apply_inverse(evoked, inverse, 1 / 9, "sLORETA", prepared=True, verbose=False)
 
     def skf_run(smoother):
-        return lambda: skf_ref.apply_skf(evoked, operator, smoother=smoother, verbose=False)
+        def call():
+            return skf_ref.apply_skf(evoked, operator, smoother=smoother, verbose=False)
+
+        call.operator = operator
+        return call
 
     mne.set_log_level("WARNING")
     runners = {
@@ -196,7 +201,11 @@ def summarize(rounds, size, made, load_before, load_after, blas_limit=None):
 
 
 def profile(run, top=15):
-    """Where one call of ``run`` spends its time: cProfile's largest cumulative entries."""
+    """Where one call of ``run`` spends its time: cProfile's largest cumulative entries.
+
+    (cProfile sees this thread only: work the spectral path hands to worker threads shows
+    as waiting; :func:`stages` times the stages themselves.)
+    """
     profiler = cProfile.Profile()
     profiler.runcall(run)
     text = io.StringIO()
@@ -205,7 +214,37 @@ def profile(run, top=15):
     return text.getvalue()
 
 
-def report(table, profiles=None):
+def stages(evoked, operator, smoother, repeats):
+    """Median wall seconds of each stage of ``apply_skf(evoked, operator)``.
+
+    ``select``: the operator's channels of the data, checked (projectors, reference);
+    ``filter``: whitening and the spectral model's recursions on the data (``r x T``);
+    ``z``: the standardized estimate, ``n x T`` (the spectral path's rows, smoother
+    included); ``amplitude``: the norm of each position's three components; ``stc``: the
+    source estimate around it.
+    """
+    import skf_ref
+
+    times = {name: [] for name in ("select", "filter", "z", "amplitude", "stc")}
+    tmin, tstep = evoked.times[0], 1 / evoked.info["sfreq"]
+    for _ in range(repeats):
+        marks = [time.perf_counter()]
+        data = operator.select(evoked.info, evoked.data, "evoked")
+        marks.append(time.perf_counter())
+        rec = operator.reconstruct(data, smoother=smoother)
+        marks.append(time.perf_counter())
+        rec.z  # noqa: B018 (computed on first access)
+        marks.append(time.perf_counter())
+        rec.amplitude(3)
+        marks.append(time.perf_counter())
+        skf_ref.io.make_stc(rec, operator.forward["src"], tmin, tstep)
+        marks.append(time.perf_counter())
+        for name, start, stop in zip(times, marks[:-1], marks[1:], strict=True):
+            times[name].append(stop - start)
+    return {name: float(np.median(values)) for name, values in times.items()}
+
+
+def report(table, profiles=None, stage_times=None):
     """The markdown file: machine, BLAS, load, the table, the targets and any profile."""
     info = machine()
     versions = ", ".join(f"{name} {version}" for name, version in info["versions"].items())
@@ -229,6 +268,18 @@ def report(table, profiles=None):
             f"| {row.ratio_median:.2f} ({row.ratio_iqr:.2f}) | {target} "
             f"| {row.made_seconds:.3f} |"
         )
+    if stage_times:
+        names = list(next(iter(stage_times.values())))
+        lines += [
+            "",
+            "Where an SKF application's time goes (median wall seconds of each stage; "
+            "`stc` includes what `amplitude` computed again):",
+            "",
+            "| path | " + " | ".join(names) + " |",
+            "|---|" + "---:|" * len(names),
+        ]
+        for path, times in stage_times.items():
+            lines.append(f"| {path} | " + " | ".join(f"{times[n]:.4f}" for n in names) + " |")
     for path, text in (profiles or {}).items():
         lines += ["", f"Profile of one `{path}` application (cumulative seconds):", "", "```"]
         lines += [text.rstrip(), "```"]
@@ -244,6 +295,8 @@ def run(size=SIZE, repeats=15, blas_limit=None, with_profile=False):
         :func:`summarize`'s.
     profiles : dict
         ``{path: text}`` with ``with_profile``.
+    stage_times : dict
+        ``{path: {stage: seconds}}`` (:func:`stages`) with ``with_profile``.
     """
     evoked, forward, noise_cov = make_inputs(*size)
     limit = nullcontext()
@@ -259,10 +312,19 @@ def run(size=SIZE, repeats=15, blas_limit=None, with_profile=False):
         rounds = measure(runners, repeats)
         load_after = os.getloadavg()
         table = summarize(rounds, size, made, load_before, load_after, blas_limit)
-        profiles = {}
+        profiles, stage_times = {}, {}
         if with_profile:
             profiles = {path: profile(runners[path]) for path in ("mne-sloreta", "skf")}
-    return table, profiles
+            operator = runners["skf"].operator
+            stage_times = {
+                path: stages(evoked, operator, smoother, repeats)
+                for path, smoother in (
+                    ("skf", None),
+                    ("skf-rts-standardized", "rts-standardized"),
+                    ("skf-rts-state", "rts-state"),
+                )
+            }
+    return table, profiles, stage_times
 
 
 def main(argv=None):
@@ -275,12 +337,13 @@ def main(argv=None):
     parser.add_argument("--profile", action="store_true")
     args = parser.parse_args(argv)
     size = tuple(int(v) for v in args.size.split(","))
-    table, profiles = run(size, args.repeats, args.blas_threads, args.profile)
+    table, profiles, stage_times = run(size, args.repeats, args.blas_threads, args.profile)
     args.out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(args.out / "operator.csv") as tmp:
+    stem = "operator" if args.blas_threads is None else f"operator-blas{args.blas_threads}"
+    with atomic_path(args.out / f"{stem}.csv") as tmp:
         table.to_csv(tmp, index=False)
-    text = report(table, profiles)
-    with atomic_path(args.out / "operator.md") as tmp:
+    text = report(table, profiles, stage_times)
+    with atomic_path(args.out / f"{stem}.md") as tmp:
         tmp.write_text(text)
     print(text)
     return 0
