@@ -120,7 +120,7 @@ def test_raw_streamed_to_zarr_equals_the_estimate(raw, operator, tmp_path, pick_
     assert store.attrs["vertices"] == [v.tolist() for v in in_memory.vertices]
     assert store.attrs["tstep"] == pytest.approx(in_memory.tstep)
     with pytest.raises(InputError, match="exists: give overwrite=True"):
-        apply_skf_raw(raw, operator, out=tmp_path / "r.zarr")
+        apply_skf_raw(raw, operator, out=tmp_path / "r.zarr", memory_limit=1)  # before work
 
 
 @pytest.mark.filterwarnings("ignore:tune. pm_snr_db")  # on its bound: the choice is the same

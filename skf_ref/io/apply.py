@@ -17,7 +17,7 @@ import numpy as np
 
 from .._utils.checks import InputError, InputTypeError, check_choice, check_instance, describe
 from .._utils.extras import optional
-from .._utils.log import caller_stacklevel, logger, verbosity
+from .._utils.log import caller_stacklevel, verbosity
 from .noise_cov import baseline_covariance
 from .operator import SKFOperator, make_skf_operator
 from .stc import PICK_ORIS
@@ -278,7 +278,6 @@ def apply_skf_epochs(
             for k, epoch in enumerate(epochs):
                 data = operator.select(epochs.info, epoch, f"epochs[{k}]")
                 rec = operator.reconstruct(data, **settings)
-                logger.debug("epoch %d done", k)
                 yield operator.to_stc(rec, tmin, tstep, pick_ori)
 
     return estimates() if return_generator else list(estimates())

@@ -77,6 +77,10 @@ def apply_skf_raw(
     stop = raw.n_times if stop is None else check_int("stop", stop, maximum=raw.n_times)
     if stop <= start:
         raise InputError(f"stop must be > start={start}, got {stop}")
+    if out is not None:
+        from .zarr_dask import check_new_store, stc_to_zarr
+
+        check_new_store(out, overwrite)
     n_times, n = stop - start, operator.n_sources
     budget = memory.available_memory() / 2 if memory_limit is None else memory_limit
     with verbosity(verbose):
@@ -99,8 +103,6 @@ def apply_skf_raw(
         if out is None:
             result = operator.to_stc(rec, tmin, tstep, pick_ori)
         else:
-            from .zarr_dask import stc_to_zarr
-
             src = operator.forward["src"]
             result = stc_to_zarr(rec, src, out, tmin, tstep, pick_ori, overwrite=overwrite)
     return (result, rec) if return_reconstruction else result

@@ -29,6 +29,7 @@ __all__ = [
     "BLOCK_BYTES",
     "STORE_MARK",
     "WRITE_BEHIND_BYTES",
+    "check_new_store",
     "new_store",
     "stc_to_zarr",
     "to_dask",
@@ -95,7 +96,13 @@ def _clean_up(path):
                 shutil.rmtree(leftover, ignore_errors=True)
 
 
-def _check_target(path, overwrite):
+def check_new_store(path, overwrite=False):
+    """Refuse, before any work, a store that :func:`new_store` could not write at ``path``.
+
+    Also finishes or removes what a killed writer of ``path`` left.
+    """
+    optional("zarr", "zarr", "writing a zarr store")
+    path = Path(path)
     if not path.parent.is_dir():
         raise InputError(f"{path}: the folder {path.parent} does not exist")
     _clean_up(path)
@@ -135,7 +142,7 @@ def new_store(path, overwrite=False, attributes=None):
     """
     zarr = optional("zarr", "zarr", "to_zarr")
     path = Path(path)
-    _check_target(path, overwrite)
+    check_new_store(path, overwrite)
     try:
         tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=temporary_prefix(path)))
     except OSError as err:
