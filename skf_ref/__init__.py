@@ -12,7 +12,8 @@ The package in layers, each importing only those listed before it:
   the log);
 - :mod:`skf_ref.method`: the SKF itself in numpy, scipy and filterpy: :func:`reconstruct`,
   its three paths, the result type, the priors and their tuning, the standardization;
-- :mod:`skf_ref.io`: MNE-Python objects and files: :func:`apply_skf`, source estimates,
+- :mod:`skf_ref.io`: MNE-Python objects and files: :func:`make_skf_operator` and
+  :func:`apply_skf` (evoked), :func:`apply_skf_epochs`, :func:`apply_skf_raw`, source estimates,
   readers and writers, outputs larger than memory (MNE, zarr and Dask are optional);
 - :mod:`skf_ref.conformance`: cross-checking another implementation: the cases,
   :func:`compare` and the catalogue of known mistakes;
@@ -48,6 +49,10 @@ _HOMES = {
     "lead_field_amplitude": "method.priors",
     "priors_from_snr": "method.priors",
     "apply_skf": "io.apply",
+    "apply_skf_epochs": "io.apply",
+    "apply_skf_raw": "io.raw",
+    "make_skf_operator": "io.operator",
+    "SKFOperator": "io.operator",
     "compare": "conformance.compare",
 }
 

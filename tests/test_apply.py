@@ -185,7 +185,7 @@ def test_baseline_noise(mne_setup):
     "change, error, match",
     [
         (dict(evoked=np.zeros((64, 10))), InputTypeError, "evoked must be an mne.Evoked"),
-        (dict(forward="fwd.fif"), InputTypeError, "forward must be an mne.Forward"),
+        (dict(forward="fwd.fif"), InputTypeError, "forward must be an SKFOperator or an mne"),
         (dict(noise_cov="diag"), InputError, r"noise_cov must be one of \['baseline'\]"),
         (dict(noise_cov=None, noise_std=-1.0), InputError, "noise_std must be > 0"),
         (dict(noise_std=1e-6), InputError, "give exactly one of noise_cov .* and noise_std"),

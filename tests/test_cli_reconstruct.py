@@ -112,3 +112,91 @@ def test_help_lets_a_newcomer_run_it():
     assert result.returncode == 0
     for flag in ("--forward", "--leadfield", "--noise-cov", "--baseline", "--plot", "examples:"):
         assert flag in result.stdout
+
+
+# --- every output checked before any work; nothing but one line around an error -------------
+
+
+@pytest.fixture(scope="module")
+def more_files(files, mne_setup):
+    folder = files / "more"
+    folder.mkdir()
+    forward = mne.read_forward_solution(files / "f-fwd.fif", verbose=False)
+    # an MNE file named against MNE's conventions: MNE warns when it reads it
+    with pytest.warns(RuntimeWarning, match="does not conform to MNE naming"):
+        mne.write_forward_solution(folder / "forward.fif", forward, verbose=False)
+    kept = [name for name in forward.ch_names if name != "Oz"]
+    mne.write_forward_solution(
+        folder / "no-oz-fwd.fif", mne.pick_channels_forward(forward, kept), verbose=False
+    )
+    cov = mne.read_cov(files / "n-cov.fif", verbose=False)
+    for name, data in (("negative", -cov.data), ("nan", np.where(cov.data > 0, np.nan, 0))):
+        bad = mne.Covariance(data, cov["names"], [], cov["projs"], cov["nfree"], verbose=False)
+        mne.write_cov(folder / f"{name}-cov.fif", bad, verbose=False)
+    evoked = mne.read_evokeds(files / "e-ave.fif", verbose=False)[0]
+    evoked.info["bads"] = evoked.ch_names[1:]
+    mne.write_evokeds(folder / "one-ave.fif", evoked, verbose=False)
+    return folder
+
+
+@pytest.mark.parametrize(
+    "plot, message",
+    [
+        ("x.txt", "argument --plot: {}: a figure is written to"),
+        ("nodir/p.png", "argument --plot: {}: the folder"),
+    ],
+)
+def test_output_paths_are_checked_before_any_work(cli, files, tmp_path, plot, message):
+    out, plot = tmp_path / "est.stc", tmp_path / plot
+    arguments = ["--forward", str(files / "f-fwd.fif"), "--evoked", str(files / "e-ave.fif")]
+    result = cli("reconstruct", *arguments, "--noise-std", "1e-6", "--out", str(out), "--plot",
+                 str(plot))  # fmt: skip
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert message.format(plot) in result.stderr
+    assert not any(tmp_path.iterdir())  # no estimate written before the figure failed
+
+
+def test_a_missing_output_folder_is_named_as_given(cli, files, tmp_path):
+    out = tmp_path / "nodir" / "a.npz"
+    arguments = ["--leadfield", str(files / "L.npy"), "--data", str(files / "Y.npy")]
+    result = cli("reconstruct", *arguments, "--noise-std", "1e-6", "--out", str(out))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert f"argument --out: {out}: the folder {out.parent} does not exist" in result.stderr
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--evoked", "m-ave.fif", "--forward", "more/forward.fif", "--noise-std", "1e-6"],
+         "custom EEG reference"),
+        (["--noise-cov", "more/negative-cov.fif"],
+         "argument --noise-cov: {files}/more/negative-cov.fif: noise_cov must be positive semi"),
+        (["--noise-cov", "more/nan-cov.fif"], "noise_cov contains NaN or Inf"),
+        (["--evoked", "more/one-ave.fif", "--noise-std", "1e-6"], "one EEG channel, 'Fp1', is"),
+    ],
+)  # fmt: skip
+def test_input_mne_refuses_or_warns_about_is_one_line(cli, files, more_files, tmp_path,
+                                                       arguments, message):  # fmt: skip
+    given = dict(zip(arguments[::2], arguments[1::2], strict=True))
+    inputs = {"--forward": "f-fwd.fif", "--evoked": "e-ave.fif"} | given
+    inputs = [
+        a
+        for flag, name in inputs.items()
+        for a in (flag, str(files / name) if name.endswith(".fif") else name)
+    ]
+    result = cli("reconstruct", *inputs, "--out", str(tmp_path / "e.stc"))
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.count("\n") == 1 and message.format(files=files) in result.stderr
+    assert not result.warnings, [str(w.message) for w in result.warnings]
+    assert not any(tmp_path.iterdir())
+
+
+def test_the_channels_used_and_left_out_are_in_the_settings(cli, files, more_files, tmp_path):
+    out = tmp_path / "e.npz"
+    arguments = ["--forward", str(more_files / "no-oz-fwd.fif"), "--evoked"]
+    arguments += [str(files / "e-ave.fif"), "--noise-cov", str(files / "n-cov.fif")]
+    result = cli("reconstruct", *arguments, "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert "63 channels used; not in the forward: Oz" in result.stderr
+    channels = json.loads((tmp_path / "e.npz.json").read_text())["channels"]
+    assert channels["left_out"] == {"not in the forward": ["Oz"]} and len(channels["used"]) == 63

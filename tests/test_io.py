@@ -160,3 +160,49 @@ def test_written_results(tmp_path, mne_setup):
         again = mne.read_source_estimate(written)
         np.testing.assert_allclose(again.data, stc.data, rtol=1e-6)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["est-stc.h5", "est-vl.stc", "r.npz"]
+
+
+# --- CSV layouts, read off the content ------------------------------------------------------
+
+
+def _csv_files(folder):
+    """Y written the ways people write it: (file, names expected, times expected)."""
+    frame = pd.DataFrame(Y, index=NAMES, columns=TIMES)
+    files = {
+        "names and times": (frame.to_csv, True, True),
+        "numbers only (np.savetxt)": (lambda p: np.savetxt(p, Y, delimiter=","), False, False),
+        "times, no names (index=False)": (lambda p: frame.to_csv(p, index=False), False, True),
+        "names, no times (header=False)": (lambda p: frame.to_csv(p, header=False), True, False),
+        "UTF-8 BOM": (lambda p: frame.to_csv(p, encoding="utf-8-sig"), True, True),
+    }
+    for i, (name, (write, names, times)) in enumerate(files.items()):
+        path = folder / f"y{i}.csv"
+        write(path)
+        yield name, path, names, times
+
+
+def test_csv_layouts_are_read_off_the_content(tmp_path):
+    for layout, path, names, times in _csv_files(tmp_path):
+        read = read_data(path)
+        np.testing.assert_allclose(read.data, Y, rtol=1e-15, err_msg=layout)
+        assert read.ch_names == (NAMES if names else None), layout
+        if times:
+            np.testing.assert_allclose(read.times, TIMES, err_msg=layout)
+        else:
+            assert read.times is None, layout
+
+
+@pytest.mark.parametrize(
+    "content",
+    [
+        "Fp1,Fp2,Cz\n1.0,2.0,3.0\n4.0,5.0,6.0\n",  # channels in columns (times x channels)
+        "0.0,0.1\n1.0,2.0\n3.0,4.0\n",  # two samples: a row of times, or of data?
+        ",0.0,0.1,0.2\nE1,1,2,3\n4,5,6,7\n",  # named and unnamed rows
+        "",
+    ],
+)
+def test_a_csv_that_fits_no_layout_is_refused_showing_the_layout(tmp_path, content):
+    path = tmp_path / "x.csv"
+    path.write_text(content)
+    with pytest.raises(InputError, match=r"x.csv: .*expected channels in rows and times in"):
+        read_data(path)

@@ -203,3 +203,78 @@ def test_narrow_smoothed_blocks_computed_several_at_a_time_equal_the_whole():
     pieces = list(rec.blocks("z", rows=7))
     assert [rows.stop - rows.start for rows, _ in pieces[:3]] == [7, 7, 7]
     np.testing.assert_allclose(np.vstack([b for _, b in pieces]), rec.z, rtol=0, atol=1e-12)
+
+
+# --- what to_zarr may touch on disk -------------------------------------------------------
+
+
+def test_overwrite_replaces_only_a_store_to_zarr_wrote(tmp_path):
+    rec = run(None, n=60, T=5)
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("a user's file")
+    a_file = tmp_path / "data.zarr"
+    a_file.write_text("not a store")
+    for path in (folder, a_file):
+        with pytest.raises(InputError, match=f"{path} exists and is not a store written by"):
+            rec.to_zarr(path, overwrite=True)
+    assert (folder / "notes.txt").read_text() == "a user's file"
+    assert a_file.read_text() == "not a store"
+    store = tmp_path / "r.zarr"
+    rec.to_zarr(store)
+    again = rec.to_zarr(store, arrays=("weights",), overwrite=True)
+    assert list(again.array_keys()) == ["weights"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data.zarr", "mine", "r.zarr"]
+
+
+def test_a_killed_writer_s_temporaries_go_on_the_next_run(tmp_path):
+    import subprocess
+    import sys
+
+    import zarr
+
+    from skf_ref.io.zarr_dask import STORE_MARK
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    rec = run(None, n=60, T=5)
+
+    def left_by_the_dead(tag, mark):
+        path = tmp_path / f".r.zarr.skf-{tag}-{dead.pid}-{mark}"
+        rec.to_zarr(tmp_path / "scratch.zarr").store.close()
+        (tmp_path / "scratch.zarr").rename(path)
+        zarr.open_group(path, mode="r+").attrs[STORE_MARK] = mark
+        return path
+
+    left_by_the_dead("tmp", "writing")  # killed while writing: deleted
+    complete = left_by_the_dead("tmp", "complete")  # killed while renaming: put in place
+    (tmp_path / f".r.zarr.skf-tmp-{dead.pid}-empty").mkdir()  # killed before writing
+    users = tmp_path / f".r.zarr.skf-tmp-{dead.pid}-ghi"  # a look-alike of the user's: kept
+    users.mkdir()
+    (users / "notes.txt").write_text("kept")
+    with pytest.raises(InputError, match="r.zarr exists: give overwrite=True"):
+        rec.to_zarr(tmp_path / "r.zarr")  # the complete store is back in place
+    assert not complete.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [users.name, "r.zarr"]
+    old = left_by_the_dead("old", "complete")  # set aside, the new one in place: deleted
+    rec.to_zarr(tmp_path / "r.zarr", overwrite=True)
+    assert not old.exists() and (users / "notes.txt").exists()
+
+
+def test_errors_name_the_user_s_path_and_arrays_are_checked(tmp_path):
+    rec = run(None, n=60, T=5)
+    missing = tmp_path / "nodir" / "r.zarr"
+    with pytest.raises(InputError, match=f"{missing}: the folder {missing.parent} does not"):
+        rec.to_zarr(missing)
+    with pytest.raises(InputError, match=r"arrays must name each output once, got \['z'\]"):
+        rec.to_zarr(tmp_path / "r.zarr", arrays=("z", "z"))
+    with pytest.raises(TypeError, match="arrays must be a sequence of output names"):
+        rec.to_zarr(tmp_path / "r.zarr", arrays="weights")
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_small_output_takes_a_small_chunk(tmp_path):
+    store = run(None, n=10, T=5).to_zarr(tmp_path / "r.zarr", arrays=NAMES)
+    assert store["z"].chunks == (10, 5)
+    size = sum(p.stat().st_size for p in (tmp_path / "r.zarr").rglob("*") if p.is_file())
+    assert size < 64 * 2**10  # five 10 x 5 arrays and their metadata, not 64 MiB a chunk

@@ -1,15 +1,16 @@
 """Files that appear whole or not at all, and no temporaries left behind."""
 
 import contextlib
+import glob
 import os
 import re
 import tempfile
 from pathlib import Path
 
-__all__ = ["atomic_path", "remove_stale_temporaries"]
+__all__ = ["atomic_path", "remove_stale_temporaries", "stale_temporaries", "temporary_prefix"]
 
 _TAG = ".skf-tmp-"
-_PID = re.compile(re.escape(_TAG) + r"(\d+)-")
+_PID = re.compile(r"\.skf-[a-z]+-(\d+)-")
 
 
 def _alive(pid):
@@ -20,6 +21,54 @@ def _alive(pid):
     except PermissionError:  # another user's process: alive
         return True
     return True
+
+
+def temporary_prefix(path, tag="tmp"):
+    """The name a temporary folder of ``path`` starts with: hidden, tagged, this process's id.
+
+    (:func:`atomic_path`'s files keep the suffix of ``path``, for the writers that read the
+    format from it: ``.STEM.skf-tmp-PID-XXXX.SUFFIX``.)
+
+    Parameters
+    ----------
+    path : path-like
+        The final name.
+    tag : str
+        What kind of temporary (``"tmp"``: being written; ``"old"``: being replaced).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> temporary_prefix("out/skf.zarr").startswith(".skf.zarr.skf-tmp-")
+    True
+    """
+    return f".{Path(path).name}.skf-{tag}-{os.getpid()}-"
+
+
+def stale_temporaries(path, tag="tmp"):
+    """Temporary folders of ``path`` (:func:`temporary_prefix`) whose process no longer runs.
+
+    Parameters
+    ----------
+    path : path-like
+    tag : str
+
+    Returns
+    -------
+    list of Path
+        Files or folders beside ``path``, left by a process killed before it could rename
+        or delete them.
+    """
+    path = Path(path)
+    found = []
+    for tmp in path.parent.glob(f".{glob.escape(path.name)}.skf-{tag}-*"):
+        match = _PID.search(tmp.name)
+        if match and not _alive(int(match.group(1))):
+            found.append(tmp)
+    return sorted(found)
 
 
 def remove_stale_temporaries(path):
@@ -39,7 +88,8 @@ def remove_stale_temporaries(path):
     """
     path = Path(path)
     removed = []
-    for tmp in path.parent.glob(f".{path.stem}{_TAG}*{path.suffix}"):
+    pattern = f".{glob.escape(path.stem)}{_TAG}*{glob.escape(path.suffix)}"
+    for tmp in path.parent.glob(pattern):
         match = _PID.search(tmp.name)
         if match and not _alive(int(match.group(1))):
             with contextlib.suppress(FileNotFoundError):

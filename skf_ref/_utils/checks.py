@@ -233,12 +233,18 @@ def check_spd(name, value, n):
         raise InputError(f"{name} must be symmetric")
     matrix = (matrix + matrix.T) / 2
     eigenvalues = linalg.eigvalsh(matrix)
-    if not eigenvalues[0] > 10 * n * np.finfo(float).eps * eigenvalues[-1]:
+    rounding = 10 * n * np.finfo(float).eps * max(eigenvalues[-1], 0.0)
+    if eigenvalues[0] < -rounding:
+        raise InputError(
+            f"{name} must be positive definite, got eigenvalues from {eigenvalues[0]:.3g} to "
+            f"{eigenvalues[-1]:.3g}: a negative variance, so no covariance"
+        )
+    if not eigenvalues[0] > rounding:
         raise InputError(
             f"{name} must be positive definite, got eigenvalues from {eigenvalues[0]:.3g} to "
             f"{eigenvalues[-1]:.3g} (singular to double precision); a rank-deficient covariance "
-            "(e.g. of average-referenced data) must be whitened to its rank instead "
-            "(skf_ref.apply_skf does so with MNE's whitener) or regularized"
+            "(e.g. of average-referenced data) must be whitened to its rank (MNE's whitener "
+            "does: skf_ref.apply_skf, or skf-ref reconstruct --forward --evoked) or regularized"
         )
     return matrix
 

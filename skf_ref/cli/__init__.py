@@ -1,10 +1,11 @@
 """The ``skf-ref`` command line.
 
 A user's mistake (a bad option, an unreadable file, input the package refuses) prints one
-line naming the flag or file and exits with status 2; Ctrl-C, at any moment, prints one line
-and exits with 130; files appear whole or not at all (written to a hidden temporary in the
-same folder, then renamed). Anything else is a bug in the package and shows its traceback.
-``--debug`` shows the traceback of every error.
+line naming the flag or file and exits with status 2, and nothing else (warnings raised
+on the way, MNE's among them, are shown only when the command succeeds); Ctrl-C, at any
+moment, prints one line and exits with 130; files appear whole or not at all (written to a
+hidden temporary in the same folder, then renamed). Anything else is a bug in the package
+and shows its traceback. ``--debug`` shows the traceback of every error.
 
 This module imports nothing heavy at import time, so that Ctrl-C while numpy, scipy or MNE
 load is an interruption like any other.
@@ -81,7 +82,7 @@ def main(argv=None):
             parser.print_help()
             return 0
         os.environ.setdefault("MPLBACKEND", "Agg")
-        args.run(args)
+        _run_showing_warnings_on_success(args)
     except KeyboardInterrupt:
         if _debug_asked(argv):
             raise
@@ -95,6 +96,17 @@ def main(argv=None):
         print(f"skf-ref: error: {_one_line(err)}", file=sys.stderr)
         return 2
     return 0
+
+
+def _run_showing_warnings_on_success(args):
+    """``args.run(args)``; the warnings it raised are shown after it, only if it succeeds:
+    an error is one line, with no third-party text around it."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        args.run(args)
+    for warning in caught:
+        warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
 
 
 def _interrupted_late(signum, frame):

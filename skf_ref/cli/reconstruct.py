@@ -17,12 +17,13 @@ examples:
       --noise-cov sample-cov.fif --out sample-skf-vl.stc --plot sample-skf.png
   skf-ref reconstruct --leadfield L.npy --data Y.csv --noise-std 1e-6 --out skf.npz
 
-The MNE route (--forward/--evoked) matches channels by name, applies the evoked's
-average-reference projector to data and lead field, whitens with the noise covariance
-reduced to its rank and writes an MNE source estimate (.stc, .h5) or arrays (.npz). The
-array route (--leadfield/--data) runs skf_ref.reconstruct on the arrays as they are (rows
-matched by name when both files name them) and writes .npz. Beside the output, NAME.json
-records every setting and the package versions.
+The MNE route (--forward/--evoked) matches channels by name, gives data and lead field
+the average reference (the evoked's projector, or its average-referenced data), whitens
+with the noise covariance reduced to its rank and writes an MNE source estimate (.stc,
+.h5) or arrays (.npz). The array route (--leadfield/--data) runs skf_ref.reconstruct on
+the arrays as they are (rows matched by name when both files name them) and writes .npz.
+Beside the output, NAME.json records every setting, the channels used and left out, and
+the package versions.
 """
 
 _OUTPUTS = (".npz", ".stc", ".h5")
@@ -77,12 +78,19 @@ def add_parser(subparsers):
         help="free orientation: per-position norm ('none') or the three components",
     )
     model.add_argument(
+        "--meg",
+        action="store_true",
+        help="MNE route: use the MEG channels too (magnetometers and gradiometers)",
+    )
+    model.add_argument(
         "--average-reference",
         action="store_true",
         help="array route: subtract the channel mean from data and lead field first",
     )
     parser.add_argument("--out", type=_output, required=True, metavar="FILE", help="output")
-    parser.add_argument("--plot", type=Path, metavar="FILE", help="also draw the estimate (PNG)")
+    parser.add_argument(
+        "--plot", type=Path, metavar="FILE", help="also draw the estimate (.png, .pdf, .svg ...)"
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress messages")
     parser.set_defaults(run=run)
 
@@ -101,13 +109,37 @@ def _route(args):
         raise InputError("give exactly one of --noise-cov, --noise-std or --baseline")
     if array_route and args.out.suffix != ".npz":
         raise InputError("argument --out: the array route writes .npz (no source space)")
+    if args.meg and not mne_route:
+        raise InputError("argument --meg: MEG channels are picked on the MNE route only")
+    if args.meg and args.noise_std is not None:
+        raise InputError(
+            "argument --meg: one --noise-std cannot whiten MEG and EEG; give --noise-cov or "
+            "--baseline"
+        )
+    _check_outputs(args)
     return "mne" if mne_route else "arrays"
+
+
+def _check_outputs(args):
+    """Every file to write can be written: checked before any work."""
+    for flag, path in (("--out", args.out), ("--plot", args.plot)):
+        if path is not None and not path.parent.is_dir():
+            raise InputError(f"argument {flag}: {path}: the folder {path.parent} does not exist")
+    if args.plot is not None:
+        from matplotlib.backend_bases import FigureCanvasBase
+
+        formats = FigureCanvasBase.get_supported_filetypes()
+        if args.plot.suffix.lstrip(".").lower() not in formats:
+            raise InputError(
+                f"argument --plot: {args.plot}: a figure is written to "
+                f"{', '.join('.' + f for f in sorted(formats))}, got {args.plot.suffix!r}"
+            )
 
 
 def _settings(args, route, extra):
     from .._utils.provenance import machine
 
-    keys = ("pm_snr_db", "ep_snr_db", "exponent", "smoother", "method", "pick_ori")
+    keys = ("pm_snr_db", "ep_snr_db", "exponent", "smoother", "method", "pick_ori", "meg")
     files = ("forward", "evoked", "condition", "leadfield", "data", "key", "noise_cov")
     return {
         "route": route,
@@ -120,11 +152,31 @@ def _settings(args, route, extra):
     }
 
 
-def _mne_route(args):
+def _read_cov(path):
+    import warnings
+
     import mne
 
-    from ..io.apply import apply_skf
+    try:
+        with warnings.catch_warnings():  # MNE's advice on file names: we read any name
+            warnings.filterwarnings("ignore", "This filename .* does not conform to MNE")
+            return mne.read_cov(path, verbose=False)
+    except Exception as err:  # MNE's reader raises several types for a bad file
+        raise InputError(f"argument --noise-cov: {path}: {err}") from err
+
+
+def _about_noise_cov(args, err):
+    """An error about the noise covariance, named by its flag and file."""
+    text = str(err)
+    if args.noise_cov is not None and text.startswith("noise_cov"):
+        return InputError(f"argument --noise-cov: {args.noise_cov}: {text}")
+    return err
+
+
+def _mne_route(args):
+    from ..io.apply import apply_skf, baseline_covariance
     from ..io.files import read_data, read_leadfield
+    from ..io.operator import make_skf_operator
 
     recording = read_data(args.evoked, condition=args.condition)
     if recording.evoked is None:
@@ -132,27 +184,39 @@ def _mne_route(args):
     forward = read_leadfield(args.forward).forward
     if forward is None:
         raise InputError(f"argument --forward: {args.forward} is not an MNE -fwd.fif")
+    evoked, types = recording.evoked, dict(meg=args.meg, eeg=True)
     if args.noise_cov is not None:
-        try:
-            noise_cov = mne.read_cov(args.noise_cov, verbose=False)
-        except Exception as err:  # MNE's reader raises several types for a bad file
-            raise InputError(f"argument --noise-cov: {args.noise_cov}: {err}") from err
+        noise_cov = _read_cov(args.noise_cov)
     else:
-        noise_cov = "baseline" if args.baseline else None
+        noise_cov = baseline_covariance(evoked, **types) if args.baseline else None
+    try:
+        operator = make_skf_operator(
+            evoked.info,
+            forward,
+            noise_cov,
+            noise_std=args.noise_std,
+            pm_snr_db=args.pm_snr_db,
+            ep_snr_db=args.ep_snr_db,
+            **types,
+            verbose=False,
+        )
+    except InputError as err:
+        raise _about_noise_cov(args, err) from err
     stc, rec = apply_skf(
-        recording.evoked,
-        forward,
-        noise_cov,
-        noise_std=args.noise_std,
-        pm_snr_db=args.pm_snr_db,
-        ep_snr_db=args.ep_snr_db,
+        evoked,
+        operator,
         exponent=args.exponent,
         smoother=args.smoother,
         pick_ori=None if args.pick_ori == "none" else args.pick_ori,
         method=args.method,
         return_reconstruction=True,
+        verbose=False,
     )
     report_tuning(args, rec.tuning)
+    args.channels = {"used": operator.ch_names, "left_out": operator.dropped}
+    if not args.quiet:
+        left_out = "".join(f"; {k}: {', '.join(v)}" for k, v in operator.dropped.items())
+        print(f"{len(operator.ch_names)} channels used{left_out}", file=sys.stderr)
     positions = [s["rr"][s["vertno"]] for s in forward["src"]]
     return rec, stc, recording.times, positions
 
@@ -181,9 +245,12 @@ def _array_route(args):
     if args.average_reference:
         L, Y = L - L.mean(axis=0), Y - Y.mean(axis=0)
     noise = _array_noise(args, recording, Y, L.shape[0])
-    theta0, q, tuning = choose_priors(
-        L, Y, **noise, pm_snr_db=args.pm_snr_db, ep_snr_db=args.ep_snr_db
-    )
+    try:
+        theta0, q, tuning = choose_priors(
+            L, Y, **noise, pm_snr_db=args.pm_snr_db, ep_snr_db=args.ep_snr_db
+        )
+    except InputError as err:
+        raise _about_noise_cov(args, err) from err
     report_tuning(args, tuning)
     rec = reconstruct(
         L,
@@ -195,11 +262,11 @@ def _array_route(args):
         smoother=None if args.smoother == "none" else args.smoother,
         method=args.method,
     )
+    args.channels = {"used": recording.ch_names or L.shape[0]}
     return rec, None, recording.times, leadfield.positions
 
 
 def _array_noise(args, recording, Y, n_channels):
-    import mne
     import numpy as np
 
     if args.noise_std is not None:
@@ -216,10 +283,7 @@ def _array_noise(args, recording, Y, n_channels):
         return {"noise_cov": baseline @ baseline.T / baseline.shape[1]}
     if recording.ch_names is None:
         raise InputError("--noise-cov needs channel names in --data to match the covariance's")
-    try:
-        cov = mne.read_cov(args.noise_cov, verbose=False)
-    except Exception as err:  # MNE's reader raises several types for a bad file
-        raise InputError(f"argument --noise-cov: {args.noise_cov}: {err}") from err
+    cov = _read_cov(args.noise_cov)
     missing = [name for name in recording.ch_names if name not in cov["names"]]
     if missing:
         raise InputError(f"argument --noise-cov: no entry for the channels {missing[:5]}")
@@ -239,8 +303,8 @@ def run(args):
     if positions is not None and not isinstance(positions, np.ndarray):
         positions = np.concatenate(positions)
     components = rec.n_sources // len(positions) if positions is not None else 1
-    amplitude = rec.amplitude(components if components in (1, 3) else 1)
     extra = {"log_likelihood": rec.log_likelihood, "theta0": rec.theta0, "q": rec.q}
+    extra["channels"] = args.channels
     if args.out.suffix == ".npz":
         written = [write_reconstruction(args.out, rec, times=times, positions=positions)]
     else:
@@ -252,7 +316,7 @@ def run(args):
 
         with atomic_path(args.plot) as tmp:
             plot_estimate(
-                amplitude,
+                rec.amplitude(components if components in (1, 3) else 1),
                 times if times is not None else np.arange(rec.n_times),
                 positions if components in (1, 3) else None,
                 title=f"SKF, exponent {args.exponent:g}, "

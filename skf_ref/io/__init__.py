@@ -1,7 +1,12 @@
 """MNE-Python objects and files in, source estimates and files out.
 
-- :mod:`.apply`: :func:`apply_skf` on an ``mne.Evoked`` with an ``mne.Forward`` and a
-  noise covariance (channels, reference and whitening done as MNE does);
+- :mod:`.operator`: :func:`make_skf_operator`, the SKF prepared once for an info, a
+  forward and a noise covariance (channels, reference and whitening done as MNE does);
+- :mod:`.apply`: :func:`apply_skf` on an ``mne.Evoked`` (with an operator, or a forward and
+  a noise covariance in one call) and :func:`apply_skf_epochs`; :mod:`.raw`:
+  :func:`apply_skf_raw` along a continuous recording;
+- :mod:`.channels` and :mod:`.noise_cov`: the channels an operator uses, their reference,
+  and the noise covariance it whitens with;
 - :mod:`.stc`: a reconstruction as an MNE source estimate;
 - :mod:`.files`: lead fields and data from ``.npy``, ``.npz``, ``.mat``, ``.csv`` and MNE's
   ``.fif``; reconstructions written to ``.npz``, ``.mat``, ``.stc``/``.h5``;
@@ -21,9 +26,15 @@ _HOMES = {
     "read_variables": "files",
     "write_reconstruction": "files",
     "write_stc": "files",
+    "SKFOperator": "operator",
+    "make_skf_operator": "operator",
     "apply_skf": "apply",
+    "apply_skf_epochs": "apply",
+    "apply_skf_raw": "raw",
+    "baseline_covariance": "noise_cov",
     "prepare": "apply",
     "make_stc": "stc",
+    "stc_to_zarr": "zarr_dask",
     "to_dask": "zarr_dask",
     "to_zarr": "zarr_dask",
 }

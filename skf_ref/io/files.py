@@ -13,8 +13,11 @@ format         read as
                ``ch_names``, ``positions`` and ``times`` when present
 ``.mat``       MATLAB v5 (``scipy.io.loadmat``) and v7.3 (HDF5, ``pymatreader``), the
                variable ``key`` (or the only one, or a conventional name)
-``.csv``       data only: channels x times, channel names in the first column, a header
-               row of times in seconds
+``.csv``       data only: channels in rows, times in columns; optionally channel names
+               in the first column and times in seconds in the first row (as
+               ``DataFrame(Y, index=names, columns=times).to_csv()`` writes it), or
+               numbers only (``np.savetxt``); the layout is read off the content and a
+               file that fits none is refused (:mod:`skf_ref.io.tables`)
 ``-fwd.fif``   lead field: ``mne.read_forward_solution`` (free orientation in MNE's x, y,
                z head coordinates); channel names and source positions kept
 ``-ave.fif``   data: ``mne.read_evokeds`` (``condition``: name or index)
@@ -27,6 +30,7 @@ other          data: anything ``mne.io.read_raw`` reads (EDF, BDF, BrainVision, 
 import contextlib
 import os
 import tempfile
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,6 +39,7 @@ import numpy as np
 from .._utils.atomic_files import atomic_path
 from .._utils.checks import InputError, check_array
 from .._utils.extras import optional
+from .tables import read_csv
 
 __all__ = [
     "LeadField",
@@ -100,9 +105,15 @@ def _existing(path):
 
 @contextlib.contextmanager
 def _reading(path, what):
-    """Turn a reader's own exceptions into one InputError naming the file."""
+    """Turn a reader's own exceptions into one InputError naming the file.
+
+    MNE's advice on file names (``-ave.fif`` and the like) is not shown: the readers here
+    take any name and say what they read the file as.
+    """
     try:
-        yield
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", "This filename .* does not conform to MNE")
+            yield
     except InputError:
         raise
     except Exception as err:  # each reader (numpy, scipy, h5py, pandas, MNE) has its own
@@ -255,7 +266,8 @@ def read_data(path, *, key=None, condition=None):
             None if times is None else check_array(f"{path} times", times, (data.shape[1],)),
         )
     if path.suffix == ".csv":
-        return _csv(path)
+        data, names, times = read_csv(path)
+        return Recording(data, names, times)
     if any(name.endswith(suffix) for suffix in _MNE_DATA):
         evoked = _mne_evoked(path, name, condition)
         return Recording(evoked.data, list(evoked.ch_names), evoked.times.copy(), evoked)
@@ -263,17 +275,6 @@ def read_data(path, *, key=None, condition=None):
         f"{path}: unknown data format {path.suffix!r}; give .npy, .npz, .mat, .csv, an MNE "
         "-ave.fif or -epo.fif, or a recording MNE reads (EDF, BDF, BrainVision, EEGLAB)"
     )
-
-
-def _csv(path):
-    import pandas as pd
-
-    with _reading(path, "CSV (channels x times, names in the first column)"):
-        table = pd.read_csv(path, index_col=0)
-        times = np.asarray(table.columns, dtype=float)
-        values = table.to_numpy(dtype=float)
-    data = check_array(f"{path}", values, ("n_channels", "n_times"))
-    return Recording(data, [str(name) for name in table.index], times)
 
 
 def _mne_evoked(path, name, condition):

@@ -11,6 +11,7 @@ MNE's ``apply_inverse`` names it:
 """
 
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,7 +19,7 @@ from .._utils.checks import InputError, check_choice, check_real
 from .._utils.extras import optional
 from .._utils.log import caller_stacklevel
 
-__all__ = ["PICK_ORIS", "make_stc"]
+__all__ = ["PICK_ORIS", "StcLayout", "make_stc", "stc_layout"]
 
 #: What a source estimate can show, in MNE's words (``pick_ori`` of ``apply_inverse``).
 PICK_ORIS = (None, "vector")
@@ -73,16 +74,73 @@ def make_stc(reconstruction, src, tmin, tstep, subject=None, pick_ori=None, *, k
             stacklevel=caller_stacklevel(),
         )
         pick_ori = _KINDS[kind]
+    tmin, tstep = check_real("tmin", tmin), check_real("tstep", tstep, positive=True)
+    layout = stc_layout(reconstruction.n_sources, src, pick_ori)
+    n_positions = len(layout.vertices_flat)
+    if pick_ori == "vector":
+        data = reconstruction.z.reshape(n_positions, 3, -1)
+    elif layout.components == 3:
+        data = reconstruction.amplitude(3)
+    else:
+        data = reconstruction.z
+    subject = subject if subject is not None else layout.subject
+    stc_class = getattr(mne, layout.class_name)
+    data = np.require(data, float, ["W"])  # z is read-only: a copy; an amplitude is new
+    return stc_class(data, vertices=layout.vertices, tmin=tmin, tstep=tstep, subject=subject)
+
+
+@dataclass(frozen=True)
+class StcLayout:
+    """What a source estimate of a reconstruction on a source space looks like.
+
+    Attributes
+    ----------
+    vertices : list of ndarray
+        Per source space, as MNE's source estimates hold them.
+    components : int
+        Reconstruction rows per position: 3 (free orientation) or 1 (fixed).
+    class_name : str
+        The MNE class (``"VolSourceEstimate"``, ...).
+    subject : str or None
+        The source space's subject.
+    """
+
+    vertices: list
+    components: int
+    class_name: str
+    subject: object
+
+    @property
+    def vertices_flat(self):
+        """ndarray : Every position's vertex number, source spaces one after the other."""
+        return np.concatenate(self.vertices)
+
+
+def stc_layout(n_sources, src, pick_ori=None):
+    """The layout of a source estimate of ``n_sources`` rows on ``src``, or a clear error.
+
+    Parameters
+    ----------
+    n_sources : int
+        Rows of the reconstruction.
+    src : mne.SourceSpaces
+    pick_ori : {None, "vector"}
+
+    Returns
+    -------
+    StcLayout
+    """
+    mne = optional("mne", "mne", "make_stc")
+
     check_choice("pick_ori", pick_ori, PICK_ORIS)
     if not isinstance(src, mne.SourceSpaces):
         raise InputError(f"src must be an mne.SourceSpaces, got {type(src).__name__}")
-    tmin, tstep = check_real("tmin", tmin), check_real("tstep", tstep, positive=True)
     vertices = [np.asarray(s["vertno"]) for s in src]
     n_positions = sum(len(v) for v in vertices)
-    components, remainder = divmod(reconstruction.n_sources, n_positions)
+    components, remainder = divmod(n_sources, n_positions)
     if remainder or components not in (1, 3):
         raise InputError(
-            f"the reconstruction has {reconstruction.n_sources} sources; the source space "
+            f"the reconstruction has {n_sources} sources; the source space "
             f"has {n_positions} positions, so it needs {n_positions} (fixed orientation) "
             f"or {3 * n_positions} (free orientation)"
         )
@@ -91,13 +149,6 @@ def make_stc(reconstruction, src, tmin, tstep, subject=None, pick_ori=None, *, k
             "pick_ori='vector' needs free orientation (three columns per position); this "
             "reconstruction has fixed orientation: use pick_ori=None"
         )
-    if pick_ori == "vector":
-        data = reconstruction.z.reshape(n_positions, 3, -1)
-    elif components == 3:
-        data = reconstruction.amplitude(3)
-    else:
-        data = reconstruction.z
     src_kind = "volume" if src.kind == "discrete" else src.kind
-    stc_class = getattr(mne, _CLASSES[src_kind, pick_ori == "vector"])
-    subject = subject if subject is not None else src[0].get("subject_his_id")
-    return stc_class(np.array(data), vertices=vertices, tmin=tmin, tstep=tstep, subject=subject)
+    class_name = _CLASSES[src_kind, pick_ori == "vector"]
+    return StcLayout(vertices, components, class_name, src[0].get("subject_his_id"))

@@ -8,7 +8,9 @@ install "skf_ref[zarr]"`` or ``"skf_ref[dask]"``.
 """
 
 import collections
+import collections.abc
 import contextlib
+import secrets
 import shutil
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
@@ -16,24 +18,150 @@ from pathlib import Path
 
 import numpy as np
 
-from .._utils.checks import InputError, check_choice, check_int
+from .._utils.atomic_files import stale_temporaries, temporary_prefix
+from .._utils.checks import InputError, InputTypeError, check_choice, check_int, describe
 from .._utils.extras import optional
 from ..method.paths.spectral_rows import NAMES
+from ..method.result import amplitude_from_components
+from .stc import stc_layout
 
-__all__ = ["BLOCK_BYTES", "WRITE_BEHIND_BYTES", "to_dask", "to_zarr"]
+__all__ = [
+    "BLOCK_BYTES",
+    "STORE_MARK",
+    "WRITE_BEHIND_BYTES",
+    "check_new_store",
+    "new_store",
+    "stc_to_zarr",
+    "to_dask",
+    "to_zarr",
+]
 
 #: Default size of one zarr chunk or Dask block (one block of rows): Dask's own advice is
-#: blocks of tens to hundreds of MiB.
+#: blocks of tens to hundreds of MiB. Smaller outputs are one chunk of their own size.
 BLOCK_BYTES = 64 * 2**20
 #: Blocks computed but not yet written to disk (:func:`to_zarr` writes on a thread of its
 #: own while the next blocks are computed): at most this many bytes.
 WRITE_BEHIND_BYTES = 128 * 2**20
+#: The attribute that marks a store as written by this package: ``"writing"`` until every
+#: array is whole, then ``"complete"``. Only a store so marked is ever replaced.
+STORE_MARK = "skf_ref_store"
 
 
-def _rows_per_block(reconstruction, chunks):
+def _rows_per_block(reconstruction, chunks, multiple=1):
+    """Rows per chunk: ``chunks``, or about :data:`BLOCK_BYTES`; never more than the rows
+    there are, and a multiple of ``multiple`` (the rows of one source position)."""
+    n = reconstruction.n_sources
     if chunks is None:
-        return max(1, BLOCK_BYTES // (8 * reconstruction.n_times))
-    return check_int("chunks", chunks, minimum=1)
+        chunks = max(1, BLOCK_BYTES // (8 * reconstruction.n_times))
+    else:
+        chunks = check_int("chunks", chunks, minimum=1)
+    return max(multiple, min(chunks, n) // multiple * multiple)
+
+
+def _check_names(arrays):
+    if isinstance(arrays, str) or not isinstance(arrays, collections.abc.Iterable):
+        raise InputTypeError(
+            f"arrays must be a sequence of output names such as ('z', 'weights'), got "
+            f"{describe(arrays)}"
+        )
+    names = [check_choice("arrays", name, NAMES) for name in arrays]
+    if not names:
+        raise InputError("arrays must name at least one output")
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise InputError(f"arrays must name each output once, got {twice} more than once")
+    return names
+
+
+def _mark(path):
+    """The :data:`STORE_MARK` of the zarr store at ``path``, or None if it has none."""
+    zarr = optional("zarr", "zarr", "to_zarr")
+    try:
+        return zarr.open_group(path, mode="r").attrs.get(STORE_MARK)
+    except Exception:  # not a zarr group (a folder of the user's, a file): zarr's own errors
+        return None
+
+
+def _clean_up(path):
+    """Finish or remove what a killed writer of ``path`` left: a complete new store goes in
+    place when ``path`` is missing, else an old one comes back; the rest is deleted."""
+    for kind in ("tmp", "old"):
+        for leftover in stale_temporaries(path, kind):
+            mark = _mark(leftover)
+            if mark is None and any(leftover.iterdir()):
+                continue  # not ours after all: never delete it
+            if mark == "complete" and not path.exists():
+                leftover.rename(path)
+            else:
+                shutil.rmtree(leftover, ignore_errors=True)
+
+
+def check_new_store(path, overwrite=False):
+    """Refuse, before any work, a store that :func:`new_store` could not write at ``path``.
+
+    Also finishes or removes what a killed writer of ``path`` left.
+    """
+    optional("zarr", "zarr", "writing a zarr store")
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise InputError(f"{path}: the folder {path.parent} does not exist")
+    _clean_up(path)
+    if not (path.exists() or path.is_symlink()):
+        return
+    if not overwrite:
+        raise InputError(f"{path} exists: give overwrite=True to replace it")
+    if path.is_symlink() or not path.is_dir() or _mark(path) != "complete":
+        raise InputError(
+            f"{path} exists and is not a store written by skf_ref: it is never replaced; "
+            "remove it yourself or choose another path"
+        )
+
+
+@contextlib.contextmanager
+def new_store(path, overwrite=False, attributes=None):
+    """A zarr group written under a hidden temporary name, renamed to ``path`` when whole.
+
+    The store is marked (:data:`STORE_MARK`) as this package's, so that ``overwrite`` may
+    replace it later; nothing else is ever deleted. If the block raises, the temporary
+    goes; if the process is killed, the next call for the same ``path`` finishes or removes
+    what it left.
+
+    Parameters
+    ----------
+    path : path-like
+        The store to create.
+    overwrite : bool
+        Replace a store this package wrote at ``path``.
+    attributes : dict, optional
+        The group's attributes.
+
+    Yields
+    ------
+    zarr.Group
+        Open for writing.
+    """
+    zarr = optional("zarr", "zarr", "to_zarr")
+    path = Path(path)
+    check_new_store(path, overwrite)
+    try:
+        tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=temporary_prefix(path)))
+    except OSError as err:
+        raise InputError(f"{path}: cannot write in {path.parent}: {err.strerror}") from err
+    try:
+        group = zarr.open_group(tmp, mode="w")
+        group.attrs.update({**(attributes or {}), STORE_MARK: "writing"})
+        yield group
+        group.attrs[STORE_MARK] = "complete"
+        old = None
+        if path.exists():  # ours (checked): set aside, the new one in place, then deleted
+            old = path.with_name(temporary_prefix(path, "old") + secrets.token_hex(4))
+            path.rename(old)
+        tmp.rename(path)
+        if old is not None:
+            shutil.rmtree(old)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
 
 
 def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
@@ -41,8 +169,8 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
 
     No output is held whole: memory is the r x T quantities, the block being computed and
     at most :data:`WRITE_BEHIND_BYTES` of blocks waiting for the disk. The store is
-    written under a temporary name beside ``path`` and renamed when complete, so an
-    interruption leaves no half-written store.
+    written under a temporary name beside ``path`` and renamed when complete
+    (:func:`new_store`), so an interruption leaves no half-written store.
 
     Parameters
     ----------
@@ -53,9 +181,10 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
         Outputs to write, each an array (n_sources, n_times) of the store:
         ``"z"``, ``"x"``, ``"z_filtered"``, ``"x_filtered"``, ``"weights"``.
     chunks : int, optional
-        Rows per zarr chunk (and per block computed); default about 64 MiB a chunk.
+        Rows per zarr chunk (and per block computed); default about 64 MiB a chunk, and
+        never more rows than the output has.
     overwrite : bool
-        Replace an existing store at ``path``.
+        Replace a store at ``path`` that this function wrote (never anything else).
 
     Returns
     -------
@@ -63,33 +192,74 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
         The store, opened for reading; its attributes hold the reconstruction's settings.
     """
     zarr = optional("zarr", "zarr", "to_zarr")
-    path = Path(path)
-    names = [check_choice("arrays", name, NAMES) for name in arrays]
-    if not names:
-        raise InputError("arrays must name at least one output")
+    names = _check_names(arrays)
     step = _rows_per_block(reconstruction, chunks)
-    if path.exists() and not overwrite:
-        raise InputError(f"{path} exists: give overwrite=True to replace it")
     shape = (reconstruction.n_sources, reconstruction.n_times)
-    tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.skf-tmp-"))
-    try:
-        group = zarr.open_group(tmp, mode="w")
-        group.attrs.update(
-            {**reconstruction.settings, "log_likelihood": reconstruction.log_likelihood}
-        )
+    settings = {**reconstruction.settings, "log_likelihood": reconstruction.log_likelihood}
+    with new_store(path, overwrite, settings) as group:
         for name in names:
             # uncompressed: estimates in float64 hardly compress, and writing is the bound
             array = group.create_array(
                 name, shape=shape, chunks=(step, shape[1]), dtype="f8", compressors=None
             )
             _write_behind(reconstruction.blocks(name, rows=step), array.__setitem__)
-        if path.exists():
-            shutil.rmtree(path)
-        tmp.rename(path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            shutil.rmtree(tmp)
-        raise
+    return zarr.open_group(path, mode="r")
+
+
+def stc_to_zarr(reconstruction, src, path, tmin, tstep, pick_ori=None, overwrite=False):
+    """Write what :func:`skf_ref.io.stc.make_stc` would hold to a zarr store, row block by
+    row block: an estimate of any length, without ever holding it whole.
+
+    Parameters
+    ----------
+    reconstruction : skf_ref.Reconstruction
+    src : mne.SourceSpaces
+    path : path-like
+        The store to create.
+    tmin, tstep : float
+        Seconds.
+    pick_ori : {None, "vector"}
+    overwrite : bool
+        Replace a store this package wrote at ``path``.
+
+    Returns
+    -------
+    zarr.Group
+        Open for reading: the array ``"data"`` (n_positions, n_times), or (n_positions,
+        3, n_times) for ``"vector"``; attributes ``vertices`` (one list per source space),
+        ``tmin``, ``tstep``, ``subject``, ``stc_class`` (MNE's class) and the settings.
+    """
+    zarr = optional("zarr", "zarr", "stc_to_zarr")
+    layout = stc_layout(reconstruction.n_sources, src, pick_ori)
+    k = layout.components
+    n_positions, T = reconstruction.n_sources // k, reconstruction.n_times
+    step = _rows_per_block(reconstruction, None, multiple=k)
+    shape = (n_positions, 3, T) if pick_ori == "vector" else (n_positions, T)
+    attributes = {
+        **reconstruction.settings,
+        "log_likelihood": reconstruction.log_likelihood,
+        "vertices": [v.tolist() for v in layout.vertices],
+        "tmin": float(tmin),
+        "tstep": float(tstep),
+        "subject": layout.subject,
+        "stc_class": layout.class_name,
+    }
+
+    def rows(blocks):
+        for where, block in blocks:
+            positions = slice(where.start // k, where.stop // k)
+            if pick_ori == "vector":
+                yield positions, block.reshape(-1, 3, T)
+            elif k == 3:
+                yield positions, amplitude_from_components(block, 3)
+            else:
+                yield positions, block
+
+    with new_store(path, overwrite, attributes) as group:
+        array = group.create_array(
+            "data", shape=shape, chunks=(step // k, *shape[1:]), dtype="f8", compressors=None
+        )
+        _write_behind(rows(reconstruction.blocks("z", rows=step)), array.__setitem__)
     return zarr.open_group(path, mode="r")
 
 

@@ -26,12 +26,11 @@ from .._utils.checks import (
     check_spd,
     check_transition,
 )
+from .._utils.precision import average_referenced
 
 __all__ = ["StateSpaceModel"]
 
 _SMALLEST, _LARGEST = np.finfo(float).tiny, np.finfo(float).max
-# A channel mean this small relative to the largest entry is an average reference.
-_REFERENCED_RTOL = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,11 +143,15 @@ class StateSpaceModel:
         return Y
 
     def _check_reference(self, Y):
-        """Refuse average-referenced data with a lead field that is not (docs/model.md §1)."""
-        scale = np.max(np.abs(Y))
-        if self.n_channels < 3 or scale == 0:
+        """Refuse average-referenced data with a lead field that is not (docs/model.md §1).
+
+        "Average referenced" to the precision each carries: float32 values (MNE's files)
+        have a channel mean of float32's rounding, not double's
+        (:func:`skf_ref._utils.precision.average_referenced`).
+        """
+        if self.n_channels < 3 or not np.any(Y):
             return
-        if np.max(np.abs(Y.mean(axis=0))) > _REFERENCED_RTOL * scale:
+        if not average_referenced(Y):
             return  # the data are not average referenced: any lead field goes
         if not self._field_referenced:
             raise InputError(
@@ -159,9 +162,8 @@ class StateSpaceModel:
 
     @functools.cached_property
     def _field_referenced(self):
-        """Whether every column of ``L`` has a channel mean of 0: one pass over ``L``."""
-        column_means = np.abs(self.L.mean(axis=0))
-        return bool(np.all(column_means <= _REFERENCED_RTOL * np.abs(self.L).max(axis=0)))
+        """Whether every column of ``L`` has a channel mean of 0 to its precision."""
+        return average_referenced(self.L, per_column=True)
 
     def matrix(self, name):
         """``"transition"``, ``"q"`` or ``"theta0"`` as an (n_sources, n_sources) matrix."""

@@ -77,9 +77,10 @@ def reconstruct(
     (4)-(7) of Prasikala et al. (2025), the smoothers §2.3.
 
     ``L`` and ``Y`` must carry the same reference: if the data are average referenced,
-    average-reference the lead field too (subtract each column's channel mean). With an
-    unreferenced ``L`` and referenced data the model is wrong and the estimate is off
-    without any error.
+    average-reference the lead field too (subtract each column's channel mean). Average
+    referenced data with an unreferenced ``L`` are refused (to the precision the numbers
+    carry, float32 included); other mismatches cannot be seen in the arrays, and give a
+    wrong estimate without an error (docs/model.md §1).
 
     Which setting to use. The defaults, exponent 0.5 without smoothing (the original SKF,
     :data:`skf_ref.RECOMMENDED_SETTING`), are what the study recommends: on a realistic head with

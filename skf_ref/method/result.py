@@ -42,7 +42,20 @@ def amplitude_from_components(z, n_components=3):
         )
     if n_components == 1:
         return np.abs(z)
-    return np.linalg.norm(z.reshape(-1, n_components, z.shape[1]), axis=1)
+    if z.flags.f_contiguous and not z.flags.c_contiguous:  # time-major, as the paths hold it
+        per_time = z.T.reshape(z.shape[1], -1, n_components)  # a view: (T, positions, k)
+        return _norm_of_last(per_time).T
+    return _norm_of_last(np.moveaxis(z.reshape(-1, n_components, z.shape[1]), 1, 2))
+
+
+def _norm_of_last(x):
+    """``sqrt(sum(x**2, axis=-1))`` for a short last axis, one component at a time: no
+    temporary as large as ``x`` (``np.linalg.norm`` squares it whole, and copies a
+    transposed array first)."""
+    out = np.square(x[..., 0])
+    for component in range(1, x.shape[-1]):
+        out += np.square(x[..., component])
+    return np.sqrt(out, out=out)
 
 
 def readonly(value):

@@ -2,7 +2,14 @@
 
 A CSV gets one whole line per finished run in a single ``write`` call, flushed to disk; a torn
 last line (a write cut short by power loss or a kill) is ignored when the file is read and
-cut off, with a warning, when a sweep resumes writing. A Parquet file is rewritten through a
+cut off, with a warning, when a sweep resumes writing. A byte-order mark (a CSV saved by
+Excel as UTF-8) is read past.
+
+While a sweep writes, the file is locked, and the lock belongs to the file, not to the name
+it was opened by: a symbolic link leads to the same lock (beside the file it points to), and
+a CSV is also locked itself (``flock`` on the file, where the system has it), so a hard link
+to it cannot be written by a second sweep either. (A Parquet file is replaced at each write,
+which ends any hard link to it.) A Parquet file is rewritten through a
 temporary file and a rename after each task. Any other damage (a line with missing or extra
 fields, an empty or non-numeric key, a run written twice, columns of another program) is an
 :class:`~skf_ref.InputError` naming the file and the line: nothing is dropped or recomputed
@@ -21,6 +28,11 @@ from ..._utils.atomic_files import atomic_path
 from ..._utils.checks import InputError
 from ._grid import KEY, row_key
 
+try:
+    import fcntl
+except ImportError:  # Windows: the lock file alone
+    fcntl = None
+
 __all__ = ["ResultsFile", "TornLineWarning", "read_results"]
 
 
@@ -29,7 +41,9 @@ class TornLineWarning(UserWarning):
 
 
 def _lock_path(out):
-    return out.with_name(f".{out.name}.lock")
+    """The lock file of the file ``out`` names, wherever symbolic links lead."""
+    real = out.resolve()
+    return real.with_name(f".{real.name}.lock")
 
 
 def _is_parquet(out):
@@ -73,7 +87,7 @@ def _complete_lines(out):
     data = out.read_bytes()
     data = data[: data.rfind(b"\n") + 1]  # a torn last line is not a row yet
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8-sig")
     except UnicodeDecodeError as err:
         raise InputError(
             f"{out} is not a results file: byte {err.start} is not UTF-8 text"
@@ -144,7 +158,7 @@ class ResultsFile:
         if self.out.suffix not in (".csv", ".parquet"):
             raise InputError(f"out must be a .csv or .parquet file name, got {str(self.out)!r}")
         self.existing = pd.DataFrame()
-        self._lock = None
+        self._lock = self._file_lock = None
 
     def __enter__(self):
         from filelock import FileLock, Timeout
@@ -155,23 +169,45 @@ class ResultsFile:
         try:
             self._lock.acquire()
         except Timeout:
-            raise InputError(
-                f"{self.out} is in use by another sweep (lock {_lock_path(self.out).name}); "
-                "wait for it to finish or write to another file"
-            ) from None
+            raise self._in_use() from None
         try:
+            if not _is_parquet(self.out) and self.out.exists():
+                self._lock_file()
             self.existing = read_results(self.out)
             self._columns = list(self.existing.columns)
             if not _is_parquet(self.out):
                 self._cut_torn_line()
         except BaseException:
-            self._lock.release()
+            self._release()
             raise
         return self
 
     def __exit__(self, *exc):
-        self._lock.release()
+        self._release()
         return False
+
+    def _in_use(self):
+        return InputError(
+            f"{self.out} is in use by another sweep (locked): wait for it to finish or write "
+            "to another file"
+        )
+
+    def _lock_file(self, flags=os.O_RDONLY):
+        """Lock the CSV itself (its inode): shared by every name of it, hard links too."""
+        fd = os.open(self.out, flags, 0o644)
+        if fcntl is not None:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                os.close(fd)
+                raise self._in_use() from None
+        self._file_lock = fd
+
+    def _release(self):
+        if self._file_lock is not None:
+            os.close(self._file_lock)  # releases the flock
+            self._file_lock = None
+        self._lock.release()
 
     def _cut_torn_line(self):
         if not self.out.exists():
@@ -204,6 +240,8 @@ class ResultsFile:
                 f"{self.out}: its columns differ from this sweep's rows (written by another "
                 "version of skf_ref?); give a new file name"
             )
+        if self._file_lock is None:  # the file is new: it is locked as it is created
+            self._lock_file(os.O_WRONLY | os.O_APPEND | os.O_CREAT)
         for _, row in frame.iterrows():
             text = row.to_frame().T.to_csv(index=False, header=header, lineterminator="\n")
             fd = os.open(self.out, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)

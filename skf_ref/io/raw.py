@@ -1,0 +1,116 @@
+"""The SKF along a continuous recording, as MNE's ``apply_inverse_raw``.
+
+The filter (and the smoother) runs along every sample of the segment asked for: one
+sequence, as the model has it (docs/model.md §1). Its estimate, n_sources x n_times, grows
+with the recording; it is returned in memory when it fits, or streamed to a zarr store one
+block of rows at a time (:func:`skf_ref.io.zarr_dask.stc_to_zarr`) when it does not.
+"""
+
+from .._utils import memory
+from .._utils.checks import InputError, InputTypeError, check_instance, check_int, describe
+from .._utils.extras import optional
+from .._utils.log import verbosity
+from .operator import SKFOperator
+
+__all__ = ["apply_skf_raw"]
+
+
+def apply_skf_raw(
+    raw,
+    operator,
+    start=0,
+    stop=None,
+    *,
+    exponent=0.5,
+    smoother=None,
+    pick_ori=None,
+    out=None,
+    overwrite=False,
+    memory_limit=None,
+    return_reconstruction=False,
+    verbose=None,
+):
+    """The SKF along a continuous recording, as MNE's ``apply_inverse_raw``.
+
+    The samples from ``start`` to ``stop`` are one sequence: the filter (and smoother) runs
+    along all of them. EP-SNR is over that sequence (docs/model.md §4: ``q`` is the
+    walk's variance over the ``stop - start`` samples), as for an evoked. The estimate is
+    returned in memory, or, with ``out``, streamed to a zarr store one block of rows at a
+    time: no (n_sources, n_times) array is ever held whole.
+
+    Parameters
+    ----------
+    raw : mne.io.Raw
+    operator : SKFOperator
+    start, stop : int, optional
+        The first sample and the one after the last (indices, as ``raw.get_data``).
+    exponent, smoother, pick_ori
+        As :func:`apply_skf`.
+    out : path-like, optional
+        A zarr store to create (e.g. ``"run1-skf.zarr"``): its array ``"data"`` holds what
+        the source estimate would (positions x times, or positions x 3 x times for
+        ``"vector"``), its attributes the vertices, ``tmin``, ``tstep``, the subject and the
+        settings. Needs the ``zarr`` extra.
+    overwrite : bool
+        Replace a store at ``out`` that an earlier call wrote.
+    memory_limit : float, optional
+        Bytes the estimate may take in memory (default half the memory available);
+        without ``out``, a larger one is refused before any work.
+    return_reconstruction : bool
+        Also return the :class:`skf_ref.Reconstruction` (whitened units; its outputs are
+        computed when asked for, in blocks: ``.blocks``, ``.to_zarr``).
+    verbose : bool or str or int, optional
+
+    Returns
+    -------
+    stc or zarr.Group
+        The source estimate, or with ``out`` the store, open for reading.
+    reconstruction : skf_ref.Reconstruction
+        Only with ``return_reconstruction=True``.
+    """
+    mne = optional("mne", "mne", "apply_skf_raw")
+    if not isinstance(raw, mne.io.BaseRaw):
+        raise InputTypeError(f"raw must be an mne.io.Raw, got {describe(raw)}")
+    check_instance("operator", operator, SKFOperator, "an SKFOperator (make_skf_operator)")
+    operator.check_pick_ori(pick_ori)
+    start = check_int("start", start, minimum=0, maximum=raw.n_times - 1)
+    stop = raw.n_times if stop is None else check_int("stop", stop, maximum=raw.n_times)
+    if stop <= start:
+        raise InputError(f"stop must be > start={start}, got {stop}")
+    if out is not None:
+        from .zarr_dask import check_new_store, stc_to_zarr
+
+        check_new_store(out, overwrite)
+    n_times, n = stop - start, operator.n_sources
+    budget = memory.available_memory() / 2 if memory_limit is None else memory_limit
+    with verbosity(verbose):
+        needed = _raw_picks(raw.info, operator)
+        memory.require(8 * len(needed) * n_times, f"{n_times} samples of raw", budget)
+        if out is None:
+            memory.require(
+                8 * 2 * n * n_times,
+                f"a source estimate of {n} sources x {n_times} samples in memory (give "
+                "out='NAME.zarr' to stream it to disk)",
+                budget,
+            )
+        info = mne.pick_info(raw.info, needed)
+        data = raw.get_data(picks=needed, start=start, stop=stop)
+        data = operator.select(info, data, "raw")
+        rec = operator.reconstruct(
+            data, exponent=exponent, smoother=smoother, memory_limit=memory_limit
+        )
+        tmin, tstep = float(raw.times[start]), 1.0 / raw.info["sfreq"]
+        if out is None:
+            result = operator.to_stc(rec, tmin, tstep, pick_ori)
+        else:
+            src = operator.forward["src"]
+            result = stc_to_zarr(rec, src, out, tmin, tstep, pick_ori, overwrite=overwrite)
+    return (result, rec) if return_reconstruction else result
+
+
+def _raw_picks(info, operator):
+    """Indices of the operator's channels and of every EEG channel (the reference check)."""
+    mne = optional("mne", "mne", "apply_skf_raw")
+    eeg = mne.pick_types(info, meg=False, eeg=True, exclude=[]) if operator.eeg_names else []
+    used = [info.ch_names.index(c) for c in operator.ch_names if c in info.ch_names]
+    return sorted(set(used) | set(int(i) for i in eeg))
