@@ -173,7 +173,7 @@ print("disagree at 1e-4:", [name for name, result in at_float32.items() if not r
 # The largest relative difference of any output, per case, in double and in single
 # precision, against the two tolerances.
 
-fig, ax = plt.subplots(figsize=(6.5, 4.5), layout="constrained")
+fig, ax = plt.subplots(figsize=(6.5, 5), layout="constrained")
 rows = np.arange(len(largest))
 ax.barh(rows - 0.2, [max(v, 1e-17) for v in largest.values()], 0.4, label="float64")
 ax.barh(rows + 0.2, [largest32[name] for name in largest], 0.4, label="float32")
@@ -181,7 +181,7 @@ ax.axvline(1e-6, color="tab:red", label="tolerance, 1e-6")
 ax.axvline(1e-4, color="tab:red", linestyle="--", label="float32 tolerance, 1e-4")
 ax.set_yticks(rows, list(largest))
 ax.set(xscale="log", xlabel="largest relative difference", title="my_skf against the suite")
-ax.legend(loc="lower right", fontsize="small")
+fig.legend(loc="outside lower center", ncols=2, fontsize="small")
 ax.invert_yaxis()
 
 # %%

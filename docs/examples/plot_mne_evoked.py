@@ -148,7 +148,8 @@ print(
 # %%
 # Each epoch's estimate at the dipole's position, and the evoked's. A single epoch's noise
 # is not averaged down: sqrt(30), about 5.5 times the evoked's, so single trials scatter
-# around the evoked's time course.
+# widely. The amplitude is the norm of a position's three components, never negative, so
+# noise alone lifts a single trial above the evoked before the pulse.
 
 fig_epochs, ax = plt.subplots(figsize=(6, 3), layout="constrained")
 milliseconds = 1e3 * stc.times
