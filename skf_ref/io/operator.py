@@ -5,7 +5,7 @@
 1. **Channels.** The channels of the types asked for (``meg``, ``eeg``, as
    ``mne.pick_types`` names them) that are good in the info, in the forward and in the
    noise covariance, in the info's order. Each one left out is listed, with the reason,
-   in :attr:`SKFOperator.dropped` and in the "skf_ref" log (``verbose=``).
+   in :class:`SKFOperator`'s ``dropped`` and in the "skf_ref" log (``verbose=``).
 2. **Reference** (EEG only). Data and lead field must carry the same reference
    (docs/model.md §1): the whitener includes an average-reference projector over the EEG
    channels used (the info's own, or one added), so the forward is given the average

@@ -8,15 +8,14 @@ they increase by equal steps (a channel's samples never do). What fits none of t
 layout; nothing is transposed or dropped silently. A UTF-8 byte-order mark (Excel's
 "CSV UTF-8") is read past.
 
-=======================================  ==============  ============
-written by                               channel names   times
-=======================================  ==============  ============
-``DataFrame(Y, index=names,              first column    first row
-columns=times).to_csv(path)``
-``np.savetxt(path, Y, delimiter=",")``   none            none
-``...to_csv(path, index=False)``         none            first row
-``...to_csv(path, header=False)``        first column    none
-=======================================  ==============  ============
+==========================================================  =============  =========
+written by                                                  channel names  times
+==========================================================  =============  =========
+``DataFrame(Y, index=names, columns=times).to_csv(path)``   first column   first row
+``np.savetxt(path, Y, delimiter=",")``                      none           none
+``...to_csv(path, index=False)``                            none           first row
+``...to_csv(path, header=False)``                           first column   none
+==========================================================  =============  =========
 """
 
 import csv

@@ -48,7 +48,10 @@ TIE_MM = 1.0
 #: The noise levels (dB) the AUC bar applies to.
 AUC_LEVELS = (20.0, 30.0)
 
-RULE_TEXT = """\
+#: The rule as the report prints it: one Markdown paragraph on one line. Wrapped, a line
+#: could start with a block marker (">= 0.9" made a quote of the rest of the paragraph).
+RULE_TEXT = " ".join(
+    """\
 **Rule (committed before the numbers).** Candidates: the 12 SKF settings (exponent 0.5, 1,
 1.25, 1.5; no smoother, `rts-standardized`, `rts-state`) at EP 20 / PM 0 dB. Data: the
 realistic head, cortex + thalamus, white noise, the *choice* seeds 1000-1019 (disjoint from
@@ -58,7 +61,8 @@ superficial peak error (mm), both sources present. (1) Admissible: deep and supe
 >= 0.9 at 20 and 30 dB. (2) Recommend the admissible setting with the smallest error
 averaged over 10, 20 and 30 dB; (3) errors within 1 mm tie, ties go to the higher mean deep
 AUC, then no smoother before a smoother, then the lower exponent. (4) If none is
-admissible, the highest deep AUC at the worse of 20 and 30 dB, and the report says so."""
+admissible, the highest deep AUC at the worse of 20 and 30 dB, and the report says so.""".split()
+)
 
 
 def auc(present, absent):
