@@ -186,7 +186,7 @@ def test_backward_in_chunks_equals_the_step_by_step_recursion(n_times, transitio
     # narrow arrays take CHUNK_STEPS steps per matrix product: the same linear map, each
     # number a combination of at most CHUNK_STEPS + 1 terms with coefficients <= 1 / a
     # (gains below 1 / a, as the filter's are), so rounding stays at a few eps
-    from skf_ref.method.paths.singular_basis import CHUNK_COLUMNS, backward
+    from skf_ref.method.paths.recursions import CHUNK_COLUMNS, backward
 
     rng = np.random.default_rng(n_times)
     gain = rng.uniform(0.05, 0.99, n_times - 1) / transition
