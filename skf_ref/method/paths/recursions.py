@@ -37,6 +37,7 @@ from scipy import signal
 __all__ = [
     "CHUNK_COLUMNS",
     "CHUNK_STEPS",
+    "LFILTER_STEPS",
     "STEADY_RTOL",
     "Recursions",
     "backward",
@@ -50,10 +51,10 @@ __all__ = [
 STEADY_RTOL = 1e-14
 #: Steps of the covariance recursion computed between two checks for the steady state.
 _CHECK_STEPS = 32
-#: A constant-coefficient recurrence at least this many steps long per component runs in
+#: A constant-coefficient recurrence at least this many steps long runs in
 #: scipy.signal.lfilter (C, 22 ns a number) rather than a numpy step loop (two calls, about
 #: 2.5 us, a step): the same arithmetic, the same bits.
-_LFILTER_STEPS = 4096
+LFILTER_STEPS = 4096
 
 
 def fixed_point(s, a, q):
@@ -362,7 +363,7 @@ def recurrence(decay, c, start=None, out=None, reverse=False):
     if not len(c):
         return out[::-1] if reverse else out
     constant = np.ndim(decay) < c.ndim
-    if constant and len(c) >= _LFILTER_STEPS:
+    if constant and len(c) >= LFILTER_STEPS:
         decay = np.broadcast_to(decay, c.shape[1:])
         start = np.zeros(c.shape[1:]) if start is None else np.broadcast_to(start, c.shape[1:])
         for index in np.ndindex(c.shape[1:]):

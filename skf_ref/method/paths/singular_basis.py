@@ -15,6 +15,7 @@ about the cost of one filter.
 import collections
 import functools
 import itertools
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -49,9 +50,11 @@ def map_threads(func, items):
 
     One worker per BLAS thread this process may use (threadpoolctl: a caller that limits
     BLAS, as joblib's workers do, limits this too), each on one BLAS thread, so the
-    elementwise work between BLAS calls runs on every core as well. Results are consumed
-    in order, at most two per worker ahead, so sums over them are the same whatever the
-    number of workers, and memory stays bounded.
+    elementwise work between BLAS calls runs on every core as well, and a core another
+    process keeps busy slows one worker, not every call. Results are consumed in order, at
+    most two per worker ahead, so sums over them are the same whatever the number of
+    workers, and memory stays bounded. The workers persist between calls (starting a
+    thread costs a millisecond or two); a call from inside a worker runs in that worker.
 
     Parameters
     ----------
@@ -71,18 +74,40 @@ def map_threads(func, items):
     """
     controller = _blas().select(user_api="blas")
     workers = max((entry["num_threads"] for entry in controller.info()), default=1)
-    if workers < 2:
+    if workers < 2 or getattr(_WORKER, "active", False):
         yield from map(func, items)
         return
+    pool = _pool(workers)
+
+    def run(item):
+        _WORKER.active = True
+        try:
+            return func(item)
+        finally:
+            _WORKER.active = False
+
     items = iter(items)
-    with controller.limit(limits=1), ThreadPoolExecutor(workers) as pool:
+    with controller.limit(limits=1):
         pending = collections.deque(
-            pool.submit(func, i) for i in itertools.islice(items, 2 * workers)
+            pool.submit(run, i) for i in itertools.islice(items, 2 * workers)
         )
         while pending:
             result = pending.popleft().result()
-            pending.extend(pool.submit(func, i) for i in itertools.islice(items, 1))
+            pending.extend(pool.submit(run, i) for i in itertools.islice(items, 1))
             yield result
+
+
+_WORKER = threading.local()
+_POOLS = {}
+_POOLS_LOCK = threading.Lock()
+
+
+def _pool(workers):
+    """The persistent pool of ``workers`` threads."""
+    with _POOLS_LOCK:
+        if workers not in _POOLS:
+            _POOLS[workers] = ThreadPoolExecutor(workers, thread_name_prefix="skf_ref")
+        return _POOLS[workers]
 
 
 def whitener(R):

@@ -27,7 +27,7 @@ from scipy.linalg import blas
 from ..._utils import memory
 from ..outputs import ARRAYS
 from ..standardization import standardization_weights
-from .recursions import backward
+from .recursions import CHUNK_COLUMNS, backward
 from .singular_basis import map_threads
 
 __all__ = [
@@ -93,6 +93,12 @@ class Standardization:
         """bool : Whether the recording reaches the steady state."""
         return self.steady < self.n_times
 
+    @property
+    def kept(self):
+        """bool : Whether the weights of the steps before ``steady`` are kept
+        (:data:`CACHE_BYTES`)."""
+        return self._cache is not None
+
     def prepare(self):
         """Compute what the tiles share, in the calling thread (the workers only read it)."""
         if self._squared is None:
@@ -102,25 +108,31 @@ class Standardization:
             self._scale = standardization_weights(self._squared @ self.omega[-1], self.exponent)
         n, S = len(self.V), self.steady
         if self._cache is None and 0 < 8 * n * S <= CACHE_BYTES:
-            cache = np.empty((n, S))
-            step = max(1, BLOCK_BYTES // (8 * S))
-            parts = [slice(i, min(i + step, n)) for i in range(0, n, step)]
-            for _ in map_threads(
-                lambda rows: self.transient(rows, slice(0, S), cache[rows]), parts
-            ):
+            cache = np.empty((S, n))  # time-major, as the outputs held in memory
+
+            def fill(rows):
+                self.transient(rows, slice(0, S), cache[:, rows].T)
+
+            for _ in map_threads(fill, _row_blocks(0, n, S)):
                 pass
             self._cache = cache
 
     def transient(self, rows, times, out=None):
         """The weights of ``rows`` at ``times`` (steps before ``steady``): (n_rows, n_steps).
 
+        Parameters
+        ----------
+        rows, times : slice
+        out : ndarray, shape (n_rows, n_steps), optional
+            Where to write them (default a new array).
+
         Returns
         -------
         ndarray
-            A view of the kept weights, or ``out`` (default a new array) filled.
+            A view of the kept weights, or ``out`` filled.
         """
         if self._cache is not None:
-            return self._cache[rows, times]
+            return self._cache[times, rows].T
         # w_t = (V o V) omega_t                                          §2.2 (7)
         w = np.matmul(self._squared[rows], self.omega[times].T, out=out)
         return standardization_weights(w, self.exponent, out=w)
@@ -250,7 +262,7 @@ class SpectralRows:
         if transient:
             part = out[:, : transient.stop - transient.start]
             np.matmul(V, u[transient].T, out=part)
-            part *= self.standardization.transient(rows, transient)
+            part *= self.standardization.transient(rows, transient, np.empty_like(part))
         if held:  # one product: z_t = (D V) u_t
             part = out[:, held.start - times.start :]
             np.matmul(V * self.standardization.scale(rows), u[held].T, out=part)
@@ -258,22 +270,28 @@ class SpectralRows:
 
     # --- the paper's smoother ---------------------------------------------------------------
 
-    def _filtered_and_projected(self, rows, out, eta=None, share=True):
-        """z_{t|t} of ``rows`` before ``steady`` into ``out`` (n_rows, T), this block's share
-        of ``zeta`` there (or None), then the smoothed ``h`` of those rows there, in place:
-        the scalar recursion from ``h_steady = D V eta_0`` (or from ``z_T`` if never held).
+    def _transient(self, rows, out, share):
+        """z_{t|t} of ``rows`` before ``steady`` into ``out`` (n_rows, n_times), and this
+        block's share of ``zeta`` there when ``share`` (else None)."""
+        z = self._standardized(self.u, rows, slice(0, self.steady), out[:, : self.steady])
+        return z.T @ self.V[rows] if share else None
+
+    def _smooth_transient(self, time_major, columns, eta):
+        """The smoothed ``h`` before ``steady`` of ``columns``, in place of their z_{t|t} in
+        ``time_major`` (n_times, n_rows): the scalar recursion from
+        ``h_steady = D V eta_0`` (or from ``z_T`` if the recording ends before ``steady``).
+
+        Over wide arrays (whole rows held in memory) it runs step by step on contiguous
+        memory; over narrow blocks (streamed) :data:`~.recursions.CHUNK_STEPS` steps at a
+        time (:func:`~.recursions.backward`).
         """
         S = self.steady
-        z = self._standardized(self.u, rows, slice(0, S), out[:, :S]) if S else None
-        projected = z.T @ self.V[rows] if share and S else None
         _, beta = self.recursions.gains
-        if S < self.n_times:  # h_S, the boundary of the backward pass
-            scaled = self.V[rows] * self.standardization.scale(rows)
-            np.matmul(scaled, eta[0], out=out[:, S])
-            backward(out[:, : S + 1].T, beta[:S], self.a, overwrite=True)
-        elif S:
-            backward(out.T, beta, self.a, overwrite=True)  # h: scalar gains, row by row
-        return projected
+        h = time_major[: S + 1] if S < self.n_times else time_major
+        if S < self.n_times:  # the boundary h_S = D V eta_0
+            scale = self.standardization.scale(columns)[:, 0]
+            np.multiply(self.V[columns] @ eta[0], scale, out=h[S])
+        backward(h, beta[: len(h) - 1], self.a, overwrite=True)
 
     def _corrected(self, rows, times, out, correction):
         """``s = h + V delta`` of ``rows`` at ``times``: ``out`` holds ``h`` before steady;
@@ -290,20 +308,23 @@ class SpectralRows:
         return out
 
     def _fill_smoothed(self, first, stop, target, correction):
-        """The paper's smoothed z of rows first:stop into ``target`` (n_rows, T)."""
-        eta = correction[self.steady :, : self.V.shape[1]]
+        """The paper's smoothed z of rows first:stop into ``target`` (n_rows, n_times)."""
+        S = self.steady
+        eta = correction[S:, : self.V.shape[1]]
 
         def rows_of(rows):
             where = target[rows.start - first : rows.stop - first]
-            self._filtered_and_projected(rows, where, eta, share=False)
+            self._transient(rows, where, share=False)
+            if S:
+                self._smooth_transient(where.T, rows, eta)
 
-        self._smooth_rows(first, stop, target, rows_of, correction)
+        for _ in map_threads(rows_of, _row_blocks(first, stop, S + 1)):
+            pass
+        self._correct(first, stop, target, correction)
 
-    def _smooth_rows(self, first, stop, target, rows_of, correction):
-        S = self.steady
-        if S:
-            for _ in map_threads(rows_of, _row_blocks(first, stop, S + 1)):
-                pass
+    def _correct(self, first, stop, target, correction):
+        """``s = h + V delta`` of rows first:stop into ``target`` (n_rows, n_times), which
+        holds ``h`` before the steady state (:meth:`_corrected`), tile by tile."""
 
         def tile(item):
             rows, times = item
@@ -391,12 +412,13 @@ class SpectralRows:
         """Output ``name`` whole, (n_times, n_sources), filled tile by tile in threads.
 
         ``"z"`` of ``"rts-standardized"`` is filled with ``z_{t|t}`` before the steady state
-        and the projection ``zeta`` in one pass, then smoothed in place: one (n, T) array.
+        and the projection ``zeta`` in one pass, smoothed in place, then corrected: one
+        (n, T) array.
 
         Returns
         -------
         ndarray, shape (n_times, n_sources)
-            The transpose of a C-ordered (n_sources, n_times) array.
+            C-ordered: the scalar recursion of the paper's smoother runs along its rows.
         """
         n, T = self.n_sources, self.n_times
         memory.require(
@@ -405,30 +427,24 @@ class SpectralRows:
             ".blocks or .to_dask)",
             budget=self.memory_limit,
         )
-        result = np.empty((n, T))
-        if name == "z" and self.smoother == "rts-standardized" and self._delta is None:
-            self.standardization.prepare()
-            S = self.steady
-            eta = self._steady_means() if S < T else None
-            zeta = np.zeros((S, self.V.shape[1]))
-
-            def rows_of(rows):
-                return self._filtered_and_projected(rows, result[rows], eta)
-
-            if S:
-                for share in map_threads(rows_of, _row_blocks(0, n, S + 1)):
-                    zeta += share  # in block order, whatever the number of threads
-            self._delta = self.correction_from(zeta, eta)
-            del eta
-
-            def tile(item):
-                rows, times = item
-                self._corrected(rows, times, result[rows, times], self._delta)
-
-            for _ in map_threads(tile, _tiles(0, n, T)):
+        result = np.empty((T, n))
+        if not (name == "z" and self.smoother == "rts-standardized" and self._delta is None):
+            return self.block(name, slice(0, n), out=result)
+        self.standardization.prepare()
+        S = self.steady
+        eta = self._steady_means() if S < T else None
+        zeta = np.zeros((S, self.V.shape[1]))
+        if S:
+            blocks = _row_blocks(0, n, S)
+            for share in map_threads(lambda b: self._transient(b, result[:, b].T, True), blocks):
+                zeta += share  # in block order, whatever the number of threads
+            parts = list(_slices(0, n, max(CHUNK_COLUMNS, -(-n // 8))))
+            for _ in map_threads(lambda p: self._smooth_transient(result[:, p], p, eta), parts):
                 pass
-            return result.T
-        return self.block(name, slice(0, n), out=result.T)
+        self._delta = self.correction_from(zeta, eta)
+        eta = None  # copied into the correction
+        self._correct(0, n, result.T, self._delta)
+        return result
 
     def min_raw_weight(self):
         """The smallest raw weight over every source and step (only to explain a failure)."""
