@@ -7,10 +7,16 @@ The floor of one smoothed ``z`` (``"rts-standardized"``, exponent 1.25) is the w
 of computing it can skip: the thin SVD of the whitened lead field (the package's own,
 :func:`skf_ref.method.paths.singular_basis.thin_svd`), four (n, r) x (r, T) products (the
 raw weights ``(V o V) omega``, the whitened means ``V u``, the projection ``V^T z`` and the
-correction ``V delta``), each one BLAS call on every BLAS thread into an array allocated
-beforehand, and one elementwise pass over the (n, T) array (``w ** -alpha`` in its fastest
-form, :func:`skf_ref.method.standardization.standardization_weights`, on one core). The path
-is timed from the lead field and the data: ``reconstruct(...).z``, everything included.
+correction ``V delta``), each one BLAS call on every BLAS thread into one new (T, n)
+array, as any way of computing ``z`` returns a new array, and one elementwise pass over it
+(``w ** -alpha`` in its fastest form,
+:func:`skf_ref.method.standardization.standardization_weights`, on one core). The path is
+timed from the lead field and the data: ``reconstruct(...).z``, everything included.
+
+A new array costs more than its arithmetic on this machine's virtual machine: memory freed
+more than about 1.5 s earlier goes back to the host (the balloon's free page reporting),
+and touching it again costs about 2 s per 1.2 GB, against 0.13 s when it is reused at once
+(docs/performance.md). Both the floor and the path pay it for their outputs.
 
 Floor and path runs alternate, so that both see the same load; the ratio is the median of
 the per-pair ratios of wall times, with its interquartile range, and the same of CPU times.
@@ -58,14 +64,13 @@ def floor_runner(problem, exponent=EXPONENT):
     T = problem["Y"].shape[1]
     rng = np.random.default_rng(0)
     coefficients = rng.standard_normal((T, V.shape[1]))
-    out = np.empty((T, V.shape[0]))
-    weights = np.empty_like(out)
-    np.matmul(rng.uniform(0.1, 1.0, (T, V.shape[1])), V.T**2, out=weights)  # positive
+    weights = rng.uniform(0.1, 1.0, (T, V.shape[1])) @ V.T**2  # positive
 
     def run():
         start = time.perf_counter()
         thin_svd(Lw)
         svd = time.perf_counter()
+        out = np.empty((T, V.shape[0]))  # a new array, as every output is
         for _ in range(4):
             np.matmul(coefficients, V.T, out=out)
         products = time.perf_counter()

@@ -128,12 +128,16 @@ def whitener(R):
     return functools.partial(linalg.solve_triangular, C, lower=True), np.sum(np.log(np.diag(C)))
 
 
-def thin_svd(Lw):
+def thin_svd(Lw, whiten=None):
     """Thin SVD of the whitened lead field, truncated to its numerical rank.
 
     Parameters
     ----------
     Lw : ndarray, shape (n_channels, n_sources)
+        The whitened lead field, or the lead field itself with ``whiten``.
+    whiten : callable, optional
+        ``M -> C^{-1} M`` (:func:`whitener`), applied here block of columns by block: no
+        whitened copy of the whole lead field is made.
 
     Returns
     -------
@@ -156,25 +160,32 @@ def thin_svd(Lw):
     # gemqrt, never formed. The blocks run in worker threads, each LAPACK call on one BLAS
     # thread (scipy's geqrt and gemqrt release the GIL): a busy core slows one worker, not
     # every call, as OpenBLAS's own threads would.
-    A = Lw.T
-    n, m = A.shape
+    m, n = Lw.shape
+    whiten = (lambda M: M) if whiten is None else whiten
     step = max(2 * m, _SVD_BLOCK_BYTES // (8 * m))
     blocks = [slice(start, min(start + step, n)) for start in range(0, n, step)]
 
-    factors = list(map_threads(_qr, [A[rows] for rows in blocks]))
-    stacked = np.vstack([np.triu(reflectors[:m]) for reflectors, _ in factors])
+    def factor(rows):
+        block = whiten(Lw[:, rows]).T  # A_i, Fortran-ordered as LAPACK uses it
+        block = block.copy(order="F") if np.shares_memory(block, Lw) else block
+        block = np.asfortranarray(block)
+        norms = np.einsum("ij,ij->i", block, block)  # squared norms of L~'s columns
+        return (*_qr(block, overwrite=True), norms)
+
+    factors = list(map_threads(factor, blocks))
+    stacked = np.vstack([np.triu(reflectors[:m]) for reflectors, _, _ in factors])
     top, T_top = _qr(stacked)
     X, s, Ut = linalg.svd(
         np.triu(top[:m]), full_matrices=False, check_finite=False, lapack_driver="gesdd"
     )
-    rank = int(np.sum(s > s[0] * max(Lw.shape) * np.finfo(float).eps))
+    rank = int(np.sum(s > s[0] * max(m, n) * np.finfo(float).eps))
     U, s = Ut[:rank].T, s[:rank]
     B = _apply_q(top, T_top, X[:, :rank].T).T  # Q' X, one block of rows per block of A
     offsets = np.cumsum([0] + [min(m, rows.stop - rows.start) for rows in blocks])
     V = np.empty((n, rank))
 
     def fill(i):
-        reflectors, T = factors[i]
+        reflectors, T, _ = factors[i]
         _apply_q(reflectors, T, B[offsets[i] : offsets[i + 1]].T, out=V[blocks[i]].T)
 
     for _ in map_threads(fill, range(len(blocks))):
@@ -184,15 +195,16 @@ def thin_svd(Lw):
     # eps s / ||l_j|| relative accuracy. V_j = l_j^T U diag(1/s) (from L~ = U diag(s) V^T)
     # is as accurate relative to its own size; for ||l_j|| < s_r its absolute error is at
     # most the SVD's, so V stays orthonormal to rounding.
-    weak = np.einsum("ij,ij->j", Lw, Lw) < s[-1] ** 2  # squared norms of L~'s columns
+    weak = np.concatenate([norms for _, _, norms in factors]) < s[-1] ** 2
     if weak.any():
-        V[weak] = (Lw[:, weak].T @ U) / s
+        V[weak] = (whiten(Lw[:, weak]).T @ U) / s
     return U, s, V
 
 
-def _qr(A):
-    """QR of ``A`` (k, m) as LAPACK's reflectors and compact WY factor (geqrt)."""
-    reflectors, T, _ = lapack.dgeqrt(min(_QR_PANEL, *A.shape), A)
+def _qr(A, overwrite=False):
+    """QR of ``A`` (k, m) as LAPACK's reflectors and compact WY factor (geqrt); with
+    ``overwrite`` the reflectors take the place of a Fortran-ordered ``A``."""
+    reflectors, T, _ = lapack.dgeqrt(min(_QR_PANEL, *A.shape), A, overwrite_a=overwrite)
     return reflectors, T
 
 
@@ -252,7 +264,7 @@ class SpectralBasis:
     def __init__(self, L, R):
         self.n_channels, self.n_sources = L.shape
         self.whiten, self.log_det_C = whitener(R)
-        self.U, self.s, self.V = thin_svd(self.whiten(L))
+        self.U, self.s, self.V = thin_svd(L, self.whiten)
 
     @property
     def rank(self):

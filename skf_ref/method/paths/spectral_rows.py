@@ -86,7 +86,7 @@ class Standardization:
     def __init__(self, V, omega, steady, n_times, exponent):
         self.V, self.omega, self.exponent = V, omega, exponent
         self.steady, self.n_times = steady, n_times
-        self._squared = self._scale = self._cache = self._projector = None
+        self._scale = self._cache = self._projector = None
 
     @property
     def held(self):
@@ -101,11 +101,12 @@ class Standardization:
 
     def prepare(self):
         """Compute what the tiles share, in the calling thread (the workers only read it)."""
-        if self._squared is None:
-            self._squared = self.V**2
         if self.held and self._scale is None:
             # W^(alpha) = Diag((V o V) omega)^(-alpha), one number a row  §2.2 (7)
-            self._scale = standardization_weights(self._squared @ self.omega[-1], self.exponent)
+            raw = np.empty(len(self.V))
+            for rows in _slices(0, len(self.V), PROJECTION_COLUMNS):
+                np.matmul(np.square(self.V[rows]), self.omega[-1], out=raw[rows])
+            self._scale = standardization_weights(raw, self.exponent, out=raw)
         n, S = len(self.V), self.steady
         if self._cache is None and 0 < 8 * n * S <= CACHE_BYTES:
             cache = np.empty((S, n))  # time-major, as the outputs held in memory
@@ -134,7 +135,7 @@ class Standardization:
         if self._cache is not None:
             return self._cache[times, rows].T
         # w_t = (V o V) omega_t                                          §2.2 (7)
-        w = np.matmul(self._squared[rows], self.omega[times].T, out=out)
+        w = np.matmul(np.square(self.V[rows]), self.omega[times].T, out=out)
         return standardization_weights(w, self.exponent, out=w)
 
     def scale(self, rows):
