@@ -1,12 +1,16 @@
 r"""The exact fast path: the SKF and both smoothers in the singular basis of the lead field.
 
 It applies to the paper's model: ``A = a I``, ``Q = q I``, ``P_0 = theta0 I`` and a constant SPD
-noise covariance ``R``. Nothing is approximated; the result equals
-:mod:`skf_ref.method.paths.dense` to rounding. Cost: one thin SVD, O(r) work per step, and a few
-(n, r) x (r, T) products, with ``r = rank(L) <= n_channels``. Memory O(n r + n T); no (n, n) matrix
-is formed. The rank-r recursions themselves, and the whitening and SVD (:class:`SpectralBasis`),
-live in :mod:`skf_ref.method.paths.singular_basis`; this module forms the n-dimensional outputs
-from them.
+noise covariance ``R``. Nothing is approximated beyond holding the covariances once they have
+settled to 1e-14 (the steady state, below); the result equals
+:mod:`skf_ref.method.paths.dense` to rounding (1e-12 relative on the tests' problems). Cost:
+one thin SVD, O(r) work per step, and a few (n, r) x (r, T) products, with
+``r = rank(L) <= n_channels``; in the steady state one product a step. Memory O(n r + n T);
+no (n, n) matrix is formed. The whitening and SVD (:class:`SpectralBasis`) live in
+:mod:`skf_ref.method.paths.singular_basis`, the rank-r recursions in
+:mod:`skf_ref.method.paths.recursions`; this module prepares them once per model
+(:class:`SpectralModel`) and :mod:`skf_ref.method.paths.spectral_rows` forms the
+n-dimensional outputs from them.
 
 Why it equals the dense recursion, equation by equation (docs/model.md §2-3)
 ---------------------------------------------------------------------------
@@ -67,8 +71,10 @@ the same recursion on ``u`` (rank r): ``s_t = D V eta_t + V delta_t``, one produ
 first (:mod:`skf_ref.method.paths.spectral_rows`). The scalar ``beta_t`` never settles when
 ``a = 1`` (``c`` grows like ``t q``); it only enters these rank-r recursions.
 
-The r x T recursions are kept time-major, (T, r); outputs are computed source-major,
-(n, T), and handed out as such.
+The r x T recursions are kept time-major, (T, r). An output held in memory is time-major
+too, (T, n), handed out as its (n, T) transpose: the smoother's scalar recursion then runs
+along whole contiguous rows. Streamed blocks of rows are computed source-major, (k, T), as
+they are written.
 """
 
 import functools
@@ -109,11 +115,6 @@ class SpectralModel:
     basis : SpectralBasis, optional
         The whitening and SVD of ``model.L`` and ``model.R``, if already computed.
 
-    Attributes
-    ----------
-    steady : int
-        The first step of the steady state (``n_times`` if the recording ends before it).
-
     Examples
     --------
     >>> from skf_ref.method.model import StateSpaceModel
@@ -139,7 +140,6 @@ class SpectralModel:
         self.basis = SpectralBasis(model.L, model.R) if basis is None else basis
         self.U, self.s, self.V = self.basis.U, self.basis.s, self.basis.V
         self.recursions = Recursions(self.s, a, q, theta0, n_times)
-        self.steady = self.recursions.steady
         self._log_det_S = self.recursions.log_det_innovations()
         self._standardizations = {}
         self._check_range()
@@ -157,6 +157,12 @@ class SpectralModel:
         omega = self.recursions.omega
         if not omega.min() > 0:
             raise InputError(overflow_cause(omega.min(), 0.0))
+
+    @property
+    def steady(self):
+        """int : The first step of the steady state (``n_times`` if the recording ends
+        before it; :mod:`skf_ref.method.paths.recursions`)."""
+        return self.recursions.steady
 
     @property
     def rank(self):

@@ -16,9 +16,12 @@ smoother (module :mod:`skf_ref.method.paths.spectral`) stays in span ``D V``:
 ``s_t = [D V, V] [eta_t; delta_t]``, one product, and ``zeta_t = (V^T D V) u_t``: the pass
 over the rows covers the steps before ``steady`` only.
 
-Each block is computed source-major, (n_rows, n_times) C-ordered, in tiles of about
-:data:`BLOCK_BYTES` on worker threads (:func:`~.singular_basis.map_threads`); blocks are
-handed out as their (n_times, n_rows) transposes, like the paths' time-major arrays.
+Everything is computed in tiles of about :data:`BLOCK_BYTES` (rows, and steps on long
+recordings) on worker threads (:func:`~.singular_basis.map_threads`), each on one BLAS
+thread. A block of rows (:meth:`SpectralRows.block`) is computed source-major, (n_rows,
+n_times) C-ordered, as it is written to disk, and handed out as its (n_times, n_rows)
+transpose; a whole output (:meth:`SpectralRows.array`) is time-major, (n_times, n_sources),
+so that the paper's smoother's scalar recursion runs along contiguous rows.
 """
 
 import numpy as np
@@ -493,9 +496,13 @@ def _tiles_by_steps(first, stop, step_first, step_stop):
 
 def _add_product(out, V_rows, delta):
     """``out += V_rows @ delta.T`` ((k, n) += (k, r) (r, n)) without a (k, n) temporary
-    where ``out`` is C-contiguous (BLAS gemm with beta = 1 accumulates into it)."""
+    where ``out`` is C-contiguous (BLAS gemm with beta = 1 accumulates into it); else
+    through a temporary in ``out``'s own order."""
     if not out.flags.c_contiguous:
-        out += V_rows @ delta.T
+        if out.strides[0] < out.strides[1]:  # a view of a time-major array
+            out.T[...] += delta @ V_rows.T
+        else:
+            out += V_rows @ delta.T
         return out
     # out^T (n, k) += delta (n, r) @ V_rows^T (r, k), every operand column-major
     a = np.asfortranarray(delta)
