@@ -68,7 +68,7 @@ PROJECTION_STEPS = 8192
 #: The standardization weights of the steps before the steady state are kept, for every
 #: exponent applied, when they take at most this much: a model applied to many data sets
 #: then pays for them once.
-CACHE_BYTES = 64 * 2**20
+CACHE_BYTES = 256 * 2**20
 
 
 class Standardization:
