@@ -100,11 +100,13 @@ class SpectralModel:
     them once.
 
     For speed when applying one model to many data sets: keep the model, ask the result
-    only for the outputs needed (each is computed on first access; ``z`` alone is one
-    product a step in the steady state), and keep the exponent: the weights of the steps
-    before the steady state are kept per exponent (:data:`~.spectral_rows.CACHE_BYTES`).
-    ``smoother=None`` and ``"rts-state"`` cost the same; ``"rts-standardized"`` adds a
-    pass over the steps before the steady state and a second product of width r.
+    only for the outputs needed (each is computed on first access; ``z`` is one product
+    and, before the steady state, one multiplication by the weights), and keep the
+    exponent: from the second data set on, the weights of the steps before the steady state
+    are kept per exponent (up to :data:`~.spectral_rows.CACHE_BYTES`). ``smoother=None``
+    and ``"rts-state"`` cost the same; ``"rts-standardized"`` adds, before the steady
+    state, two products (the projection ``V^T z`` and the correction ``V delta``) and a
+    backward pass, and after it a second product of width r.
 
     Parameters
     ----------

@@ -66,8 +66,8 @@ SMOOTH_BYTES = 64 * 2**20
 PROJECTION_COLUMNS = 8192
 PROJECTION_STEPS = 8192
 #: The standardization weights of the steps before the steady state are kept, for every
-#: exponent applied, when they take at most this much: a model applied to many data sets
-#: then pays for them once.
+#: exponent applied to a second data set, when they take at most this much: a model
+#: applied to many data sets then pays for them once.
 CACHE_BYTES = 256 * 2**20
 
 
@@ -90,6 +90,7 @@ class Standardization:
         self.V, self.omega, self.exponent = V, omega, exponent
         self.steady, self.n_times = steady, n_times
         self._scale = self._cache = self._projector = None
+        self.applications = 0  # data sets this standardization served (SpectralRows)
 
     @property
     def held(self):
@@ -111,7 +112,7 @@ class Standardization:
                 np.matmul(np.square(self.V[rows]), self.omega[-1], out=raw[rows])
             self._scale = standardization_weights(raw, self.exponent, out=raw)
         n, S = len(self.V), self.steady
-        if self._cache is None and 0 < 8 * n * S <= CACHE_BYTES:
+        if self._cache is None and self.applications > 1 and 0 < 8 * n * S <= CACHE_BYTES:
             cache = np.empty((S, n))  # time-major, as the outputs held in memory
 
             def fill(rows):
@@ -182,6 +183,7 @@ class SpectralRows:
         self.steady = recursions.steady
         self.exponent, self.smoother, self.memory_limit = exponent, smoother, memory_limit
         self.standardization = model.standardization(exponent)
+        self.standardization.applications += 1
         self.recursions = recursions
         # P_{t|t-1}^{-1/2} x = V diag(p^{-1/2}) xi                      §2.2 (6)
         self.u = self._whitened(xi)
