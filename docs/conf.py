@@ -70,15 +70,6 @@ _BUILTINS = (
 )
 nitpicky = True
 nitpick_ignore_regex = [(r"py:.*", _EXTERNAL), (r"py:.*", _BUILTINS)]
-# Names that singular_basis.backward's docstring cites but its module does not export. The
-# speed branch moves backward to method/paths/recursions.py, which exports CHUNK_COLUMNS and
-# CHUNK_STEPS; once it is merged, recursions has its API page (api.rst) and its docstring
-# names the private helper as text, ``_chunk_matrices``, these three entries go.
-nitpick_ignore = [
-    ("py:data", "CHUNK_COLUMNS"),
-    ("py:data", "CHUNK_STEPS"),
-    ("py:func", "_chunk_matrices"),
-]
 
 myst_enable_extensions = ["dollarmath", "amsmath", "substitution"]
 myst_substitutions = {"version": release}

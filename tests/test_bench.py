@@ -109,13 +109,14 @@ def test_long_recording_reports_time_memory_and_the_disk(tmp_path):
     row = long_recording.measure(size=(300, 16, 400), folder=tmp_path)
     assert row["gib_written"] == pytest.approx(8 * 300 * 400 / 2**30)
     assert row["seconds"] > 0 and 0 < row["peak_rss_gib"] < 4
+    assert row["cpu_seconds"] > 0 and 0 < row["steady"] <= 400 and row["load_1min"] >= 0
     assert row["sequential_mib_s"] > 0 and row["fraction_of_disk"] > 0
     assert not list(tmp_path.iterdir())  # the store and the raw file are removed
     assert "Long recording" in long_recording.to_markdown(row)
 
 
 def test_long_recording_section_replaces_the_old_one(tmp_path):
-    # the bench writes the table and this section; run alone, the section is replaced and
+    # the bench writes the table and this section; run again, the section is replaced and
     # the table kept
     from validation import long_recording
 
@@ -124,6 +125,11 @@ def test_long_recording_section_replaces_the_old_one(tmp_path):
         n_channels=2,
         n_times=3,
         seconds=1.0,
+        cpu_seconds=1.5,
+        speedup=160.8,
+        steady=2,
+        load_1min=0.5,
+        runnable=0.0,
         peak_rss_gib=1.0,
         gib_written=1.0,
         throughput_mib_s=1.0,
@@ -131,9 +137,51 @@ def test_long_recording_section_replaces_the_old_one(tmp_path):
         fraction_of_disk=0.5,
         blas_threads=2,
     )
-    long_recording.save(row, tmp_path, "# table\n\nrows\n")
-    first = (tmp_path / "results.md").read_text()
-    long_recording.save(dict(row, seconds=9.0), tmp_path, first)
-    again = (tmp_path / "results.md").read_text()
+    first = long_recording.save(row, tmp_path, "# table\n\nrows\n")
+    again = long_recording.save(dict(row, seconds=9.0), tmp_path, first)
     assert again.startswith("# table\n\nrows\n") and again.count(long_recording.HEADING) == 1
-    assert "| 9.0 |" in again and (tmp_path / "long_recording.csv").exists()
+    assert "| 9.0 | 1.5 | 0.50 / 0 |" in again and (tmp_path / "long_recording.csv").exists()
+
+
+def test_every_timing_records_cpu_time_and_load():
+    from validation import timing
+
+    timed = timing.measure(lambda: sum(range(10_000)), repeats=3)
+    assert timed["runs"] == 3 and timed["q1_seconds"] <= timed["seconds"] <= timed["q3_seconds"]
+    assert timed["cpu_seconds"] > 0 and timed["load_1min"] >= 0 and timed["runnable"] >= 0
+    assert timed["peak_bytes"] >= 0
+
+
+def test_the_competitor_runs_only_inside_its_block():
+    from validation import timing
+
+    with timing.competitor() as process:
+        assert process.poll() is None  # spinning
+    assert process.poll() is not None  # stopped when the block ends
+    with timing.competitor(active=False) as nothing:
+        assert nothing is None
+
+
+def test_floor_comparison_at_a_tiny_size(monkeypatch, tmp_path):
+    from validation import floor
+
+    monkeypatch.setattr(floor, "SIZE", (300, 32, 20))
+    argv = ["--no-table", "--floor", "--repeats", "2", "--out", str(tmp_path)]
+    (tmp_path / "results.md").write_text("# Benchmarks\n\n## Every path\n\nkept\n")
+    assert bench.main(argv) == 0
+    rows = pd.read_csv(tmp_path / "floor.csv")
+    assert list(rows["condition"]) == ["quiet", "competitor"] and (rows["pairs"] == 2).all()
+    assert (rows["ratio"] > 0).all() and (rows["floor_svd_seconds"] > 0).all()
+    assert (rows["cpu_ratio_q1"] <= rows["cpu_ratio_q3"]).all()
+    text = (tmp_path / "results.md").read_text()
+    assert "## Every path\n\nkept\n" in text and text.count(floor.HEADING) == 1
+    assert "| competitor |" in text and "<= 1.15" in text and "<= 1.5" in text
+
+
+def test_replace_section_adds_replaces_and_keeps():
+    from validation.timing import replace_section
+
+    text = replace_section("# B\n", "## One", "## One\n\na\n")
+    text = replace_section(text, "## Two", "## Two\n\nb\n")
+    text = replace_section(text, "## One", "## One\n\nc\n")
+    assert text == "# B\n\n## One\n\nc\n\n## Two\n\nb\n"

@@ -73,7 +73,7 @@ def test_the_svd_and_the_recursion_are_computed_once(problem, monkeypatch):
         return call
 
     monkeypatch.setattr(singular_basis, "thin_svd", counted("svd", singular_basis.thin_svd))
-    monkeypatch.setattr(spectral, "covariances", counted("recursion", spectral.covariances))
+    monkeypatch.setattr(spectral, "Recursions", counted("recursion", spectral.Recursions))
     estimates = apply_skf_epochs(epochs[:4], operator, **SETTINGS)
     assert len(estimates) == 4 and calls == {"svd": 0, "recursion": 1}
 

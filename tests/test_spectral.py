@@ -186,7 +186,7 @@ def test_backward_in_chunks_equals_the_step_by_step_recursion(n_times, transitio
     # narrow arrays take CHUNK_STEPS steps per matrix product: the same linear map, each
     # number a combination of at most CHUNK_STEPS + 1 terms with coefficients <= 1 / a
     # (gains below 1 / a, as the filter's are), so rounding stays at a few eps
-    from skf_ref.method.paths.singular_basis import CHUNK_COLUMNS, backward
+    from skf_ref.method.paths.recursions import CHUNK_COLUMNS, backward
 
     rng = np.random.default_rng(n_times)
     gain = rng.uniform(0.05, 0.99, n_times - 1) / transition
@@ -216,7 +216,9 @@ def test_thin_svd_in_blocks_against_numpy(monkeypatch, n_channels, n_sources, bl
         L[:, :3] *= [1e-6, 1e-9, 1e-12]  # their rows of V come from L~^T U / s
     if n_channels > 3:
         L -= L.mean(axis=0)  # average reference: rank n_channels - 1
+    given = L.copy()
     U, s, V = singular.thin_svd(L)
+    np.testing.assert_array_equal(L, given)  # the blocks' QR works on copies
     expected = np.linalg.svd(L, compute_uv=False)
     rank = min(n_channels - (n_channels > 3), n_sources)
     assert s.shape == (rank,) and U.shape == (n_channels, rank) and V.shape == (n_sources, rank)
@@ -227,6 +229,12 @@ def test_thin_svd_in_blocks_against_numpy(monkeypatch, n_channels, n_sources, bl
     np.testing.assert_allclose(U.T @ U, np.eye(rank), rtol=0, atol=1e-14)
     if weak:  # a weak column's row is accurate relative to its own size, not only to eps
         np.testing.assert_allclose(V[2], (L[:, 2] @ U) / s, rtol=1e-12)
+    # whitening block by block (no whitened copy of L) gives the SVD of the whitened L
+    C = np.linalg.cholesky(np.eye(n_channels) + 0.1)
+    whiten, _ = singular.whitener(C @ C.T)
+    Uw, sw, Vw = singular.thin_svd(L, whiten)
+    np.testing.assert_array_equal(L, given)
+    np.testing.assert_allclose((Uw * sw) @ Vw.T, whiten(L), rtol=0, atol=1e-13 * sw[0])
 
 
 @pytest.mark.parametrize("exponent", [0.0, 0.5, 0.75, 1.0, 1.25, 2.0, 0.3, 4.5])

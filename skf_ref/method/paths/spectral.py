@@ -1,12 +1,16 @@
 r"""The exact fast path: the SKF and both smoothers in the singular basis of the lead field.
 
 It applies to the paper's model: ``A = a I``, ``Q = q I``, ``P_0 = theta0 I`` and a constant SPD
-noise covariance ``R``. Nothing is approximated; the result equals
-:mod:`skf_ref.method.paths.dense` to rounding. Cost: one thin SVD, O(r) work per step, and a few
-(n, r) x (r, T) products, with ``r = rank(L) <= n_channels``. Memory O(n r + n T); no (n, n) matrix
-is formed. The rank-r recursions themselves, and the whitening and SVD (:class:`SpectralBasis`),
-live in :mod:`skf_ref.method.paths.singular_basis`; this module forms the n-dimensional outputs
-from them.
+noise covariance ``R``. Nothing is approximated beyond holding the covariances once they have
+settled to 1e-14 (the steady state, below); the result equals
+:mod:`skf_ref.method.paths.dense` to rounding (1e-12 relative on the tests' problems). Cost:
+one thin SVD, O(r) work per step, and a few (n, r) x (r, T) products, with
+``r = rank(L) <= n_channels``; in the steady state one product a step. Memory O(n r + n T);
+no (n, n) matrix is formed. The whitening and SVD (:class:`SpectralBasis`) live in
+:mod:`skf_ref.method.paths.singular_basis`, the rank-r recursions in
+:mod:`skf_ref.method.paths.recursions`; this module prepares them once per model
+(:class:`SpectralModel`) and :mod:`skf_ref.method.paths.spectral_rows` forms the
+n-dimensional outputs from them.
 
 Why it equals the dense recursion, equation by equation (docs/model.md §2-3)
 ----------------------------------------------------------------------------
@@ -57,7 +61,20 @@ and, on the complement of ``U``, the part of ``y~`` that no source explains, ``r
   ``delta_T = 0``, ``delta_t = gamma_t delta_{t+1} + (gamma_t - beta_t)(chi_{t+1} - a zeta_t)``.
   So ``s = h + V delta``: one product ``V^T z``, one product ``V delta``, O(r T) recursions.
 
-Arrays are kept time-major, (T, n), internally; the result is handed out as (n, T) views.
+**Steady state.** The covariance recursion settles (:mod:`skf_ref.method.paths.recursions`):
+from step ``steady`` on, ``p`` and with it ``omega`` and ``W_t^(alpha) = D`` are held, to a
+relative ``STEADY_RTOL`` (1e-14). Then ``z_t = (D V) u_t`` with ``u_t = p^{-1/2} xi_t``: one
+product, no power. In the paper's smoother, ``h`` obeys a scalar recursion, so for
+``t >= steady``, where every ``z_t`` lies in span ``D V``, ``h_t = D V eta_t`` with ``eta``
+the same recursion on ``u`` (rank r): ``s_t = D V eta_t + V delta_t``, one product of width
+2r, and ``zeta_t = (V^T D V) u_t``. Only the steps before ``steady`` need ``z`` of every row
+first (:mod:`skf_ref.method.paths.spectral_rows`). The scalar ``beta_t`` never settles when
+``a = 1`` (``c`` grows like ``t q``); it only enters these rank-r recursions.
+
+The r x T recursions are kept time-major, (T, r). An output held in memory is time-major
+too, (T, n), handed out as its (n, T) transpose: the smoother's scalar recursion then runs
+along whole contiguous rows. Streamed blocks of rows are computed source-major, (k, T), as
+they are written.
 """
 
 import functools
@@ -67,16 +84,9 @@ import numpy as np
 from ..._utils.checks import InputError
 from ..result import Reconstruction
 from ..standardization import overflow_cause
-from .singular_basis import (
-    SpectralBasis,
-    backward,
-    covariances,
-    filter_means,
-    log_det_innovations,
-    log_likelihood,
-    rts_gains,
-)
-from .spectral_rows import NAMES, SpectralRows
+from .recursions import Recursions
+from .singular_basis import SpectralBasis, log_likelihood
+from .spectral_rows import NAMES, SpectralRows, Standardization
 
 __all__ = ["SpectralModel", "run"]
 
@@ -85,8 +95,18 @@ class SpectralModel:
     """The data-independent part of the spectral path, prepared once, applied many times.
 
     Whitening, the SVD and the whole covariance recursion depend on the model and the number
-    of steps only, so runs that share them (several seeds of a simulation, several
-    exponents and smoothers) pay for them once.
+    of steps only, and so do the standardization weights of each exponent, so runs that
+    share them (several data sets, seeds of a simulation, exponents and smoothers) pay for
+    them once.
+
+    For speed when applying one model to many data sets: keep the model, ask the result
+    only for the outputs needed (each is computed on first access; ``z`` is one product
+    and, before the steady state, one multiplication by the weights), and keep the
+    exponent: from the second data set on, the weights of the steps before the steady state
+    are kept per exponent (up to :data:`~.spectral_rows.CACHE_BYTES`). ``smoother=None``
+    and ``"rts-state"`` cost the same; ``"rts-standardized"`` adds, before the steady
+    state, two products (the projection ``V^T z`` and the correction ``V delta``) and a
+    backward pass, and after it a second product of width r.
 
     Parameters
     ----------
@@ -94,6 +114,8 @@ class SpectralModel:
         With ``transition``, ``q`` and ``theta0`` scalars or scalar multiples of the
         identity (:meth:`StateSpaceModel.isotropic_problem` is None).
     n_times : int
+    basis : SpectralBasis, optional
+        The whitening and SVD of ``model.L`` and ``model.R``, if already computed.
 
     Examples
     --------
@@ -119,28 +141,49 @@ class SpectralModel:
         self.n_channels, self.n_sources = model.L.shape
         self.basis = SpectralBasis(model.L, model.R) if basis is None else basis
         self.U, self.s, self.V = self.basis.U, self.basis.s, self.basis.V
-        self.p_pred, self.p_filt, self._u = covariances(self.s, a, q, theta0, n_times)
-        # w = (V o V) omega, omega = s^2 p / (s^2 p + 1)               §2.2 (7)
-        self.omega = self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)
-        self._log_det_S = log_det_innovations(self.s, self.p_pred)
+        self.recursions = Recursions(self.s, a, q, theta0, n_times)
+        self._log_det_S = self.recursions.log_det_innovations()
+        self._standardizations = {}
         self._check_range()
 
     def _check_range(self):
         """Refuse, before any output, a model whose covariances leave double precision."""
-        if not (np.isfinite(self.p_pred).all() and np.isfinite(self._log_det_S)):
+        p_pred = self.recursions.p_pred
+        if not (np.isfinite(p_pred).all() and np.isfinite(self._log_det_S)):
             raise InputError(
                 f"the predicted covariance overflows: theta0={self.model.theta0:g}, "
                 f"q={self.model.q:g} and transition={self.a:g} are out of range at this lead "
                 f"field's scale (largest whitened singular value {self.s[0]:.3g}); rescale L, "
                 "the noise or the priors"
             )
-        if not self.omega.min() > 0:
-            raise InputError(overflow_cause(self.omega.min(), 0.0))
+        omega = self.recursions.omega
+        if not omega.min() > 0:
+            raise InputError(overflow_cause(omega.min(), 0.0))
+
+    @property
+    def steady(self):
+        """int : The first step of the steady state (``n_times`` if the recording ends
+        before it; :mod:`skf_ref.method.paths.recursions`)."""
+        return self.recursions.steady
 
     @property
     def rank(self):
         """int : Numerical rank of the whitened lead field."""
         return len(self.s)
+
+    def standardization(self, exponent):
+        """The weights ``W_t^(alpha)`` of every source and step at ``exponent``, kept.
+
+        Returns
+        -------
+        Standardization
+        """
+        key = float(exponent)
+        if key not in self._standardizations:
+            self._standardizations[key] = Standardization(
+                self.V, self.recursions.omega, self.steady, self.n_times, key
+            )
+        return self._standardizations[key]
 
     def apply(self, Y, exponent, smoother, memory_limit=None):
         """Filter and smooth data ``Y``; equal to :func:`skf_ref.method.paths.dense.run` on the
@@ -160,25 +203,15 @@ class SpectralModel:
         Reconstruction
             Its arrays are computed on first access.
         """
-        m, T, a = self.n_channels, self.n_times, self.a
+        m, T = self.n_channels, self.n_times
         Y = self.model.check_data(Y)
         if Y.shape != (m, T):
             raise InputError(f"Y must have shape ({m}, {T}), got {Y.shape}")
         eta, rho_sq = self.basis.project(Y)  # U^T y~ (T, r) and the data outside span U
-        xi, quadratic, _ = filter_means(self.s, eta, self.p_pred, a)
+        xi, quadratic, _ = self.recursions.filter_means(eta)
+        del eta
         total = log_likelihood(quadratic, self._log_det_S, rho_sq, self.basis.log_det_C, m, T)
-        gamma, beta = rts_gains(self.p_pred, self.p_filt, self._u, a)
-        rows = SpectralRows(
-            self.V,
-            self.omega,
-            self.p_pred,
-            xi,
-            exponent,
-            smoother,
-            xi_smoothed=backward(xi, gamma, a) if smoother == "rts-state" else None,
-            gains=(gamma, beta, a),
-            memory_limit=memory_limit,
-        )
+        rows = SpectralRows(self, xi, exponent, smoother, memory_limit=memory_limit)
         return Reconstruction(
             **{name: functools.partial(_transposed, rows, name) for name in NAMES},
             log_likelihood=total,

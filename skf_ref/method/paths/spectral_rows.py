@@ -8,8 +8,20 @@ or on a cluster (:meth:`SpectralRows.block`). The one exception is the paper's s
 ``"rts-standardized"``: its correction ``V delta`` needs ``zeta = V^T z_{t|t}`` summed over
 all rows, which one pass over the blocks computes first (r x T numbers; kept).
 
-Blocks are time-major, (n_times, n_rows), like the paths' internal arrays; results hand
-them out transposed.
+In the steady state (:mod:`skf_ref.method.paths.recursions`, from step ``steady`` on) the
+weights are held: ``W_t^(alpha) = D``, one number a row, and every output is one product,
+``z_t = (D V) u_t`` with ``u_t = p^{-1/2} xi_t``. There the smoothed ``h_t`` of the paper's
+smoother (module :mod:`skf_ref.method.paths.spectral`) stays in span ``D V``:
+``h_t = D V eta_t`` with ``eta`` the scalar recursion on ``u`` (rank r), so
+``s_t = [D V, V] [eta_t; delta_t]``, one product, and ``zeta_t = (V^T D V) u_t``: the pass
+over the rows covers the steps before ``steady`` only.
+
+Everything is computed in tiles of about :data:`BLOCK_BYTES` (rows, and steps on long
+recordings) on worker threads (:func:`~.singular_basis.map_threads`), each on one BLAS
+thread. A block of rows (:meth:`SpectralRows.block`) is computed source-major, (n_rows,
+n_times) C-ordered, as it is written to disk, and handed out as its (n_times, n_rows)
+transpose; a whole output (:meth:`SpectralRows.array`) is time-major, (n_times, n_sources),
+so that the paper's smoother's scalar recursion runs along contiguous rows.
 """
 
 import numpy as np
@@ -17,11 +29,13 @@ from scipy.linalg import blas
 
 from ..._utils import memory
 from ..outputs import ARRAYS
-from ..standardization import standardization_weights, standardized_means
-from .singular_basis import backward, map_threads
+from ..standardization import standardization_weights
+from .recursions import CHUNK_COLUMNS, backward
+from .singular_basis import map_threads
 
 __all__ = [
     "BLOCK_BYTES",
+    "CACHE_BYTES",
     "MIN_BLOCK_COLUMNS",
     "NAMES",
     "PROJECTION_COLUMNS",
@@ -29,28 +43,121 @@ __all__ = [
     "SMOOTH_BYTES",
     "SMOOTH_COLUMNS",
     "SpectralRows",
+    "Standardization",
 ]
 
 #: The outputs a reconstruction holds.
 NAMES = ARRAYS  # the outputs it computes rows of
-#: Temporaries of at most this size when forming (T, n) outputs: small enough for the
-#: allocator to reuse them (a fresh large allocation costs a page fault per 4 KiB) and for
-#: a block to stay in cache between the steps that touch it.
+#: One tile of an output, a work item of the worker threads: small enough to stay in
+#: cache between the steps that touch it and for both cores to share even small outputs.
 BLOCK_BYTES = 4 * 2**20
-#: But never fewer columns than this: each block reads the whole (T, r) recursions, so on
-#: long recordings (T = 200 000: 2 columns in 4 MiB) narrow blocks would read them
-#: thousands of times and multiply matrices one or two columns wide.
+#: Rows of a tile on long recordings (more than BLOCK_BYTES / (8 MIN_BLOCK_COLUMNS)
+#: steps), which are cut into tiles of steps too: products at least this wide.
 MIN_BLOCK_COLUMNS = 64
-#: Streamed "rts-standardized" outputs narrower than SMOOTH_COLUMNS are computed several
-#: blocks at a time, up to that width or SMOOTH_BYTES: the smoother's backward pass costs
-#: T vector operations per block whatever its width.
+#: :meth:`skf_ref.Reconstruction.blocks` computes streamed ``"rts-standardized"`` outputs
+#: narrower than SMOOTH_COLUMNS several blocks at a time, up to that width or
+#: SMOOTH_BYTES: the backward pass over the steps before the steady state costs one
+#: vector operation a step per block.
 SMOOTH_COLUMNS = 512
-SMOOTH_BYTES = 256 * 2**20
+SMOOTH_BYTES = 64 * 2**20
 #: The "rts-standardized" correction sums zeta over groups of this many rows, in tiles of
-#: this many steps (one work item of the worker threads each): items small enough for
-#: memory and for both cores to share even at T = 1000, large enough to amortize their cost.
+#: this many steps (one work item of the worker threads each): the same bits whatever the
+#: number of threads.
 PROJECTION_COLUMNS = 8192
 PROJECTION_STEPS = 8192
+#: The standardization weights of the steps before the steady state are kept, for every
+#: exponent applied to a second data set, when they take at most this much: a model
+#: applied to many data sets then pays for them once.
+CACHE_BYTES = 256 * 2**20
+
+
+class Standardization:
+    """``W_t^(alpha)`` of one model and exponent, for any rows and steps: no data needed.
+
+    Parameters
+    ----------
+    V : ndarray, shape (n_sources, r)
+    omega : ndarray, shape (n_stored, r)
+        ``s^2 p_{t|t-1} / (s^2 p_{t|t-1} + 1)`` (:class:`~.recursions.Recursions`): the
+        raw weights are ``(V o V) omega_t``; the last row holds from step ``steady`` on.
+    steady : int
+        First step of the steady state (``n_times``: none).
+    n_times : int
+    exponent : float
+    """
+
+    def __init__(self, V, omega, steady, n_times, exponent):
+        self.V, self.omega, self.exponent = V, omega, exponent
+        self.steady, self.n_times = steady, n_times
+        self._scale = self._cache = self._projector = None
+        self.applications = 0  # data sets this standardization served (SpectralRows)
+
+    @property
+    def held(self):
+        """bool : Whether the recording reaches the steady state."""
+        return self.steady < self.n_times
+
+    @property
+    def kept(self):
+        """bool : Whether the weights of the steps before ``steady`` are kept
+        (:data:`CACHE_BYTES`)."""
+        return self._cache is not None
+
+    def prepare(self):
+        """Compute what the tiles share, in the calling thread (the workers only read it)."""
+        if self.held and self._scale is None:
+            # W^(alpha) = Diag((V o V) omega)^(-alpha), one number a row  §2.2 (7)
+            raw = np.empty(len(self.V))
+            for rows in _slices(0, len(self.V), PROJECTION_COLUMNS):
+                np.matmul(np.square(self.V[rows]), self.omega[-1], out=raw[rows])
+            self._scale = standardization_weights(raw, self.exponent, out=raw)
+        n, S = len(self.V), self.steady
+        if self._cache is None and self.applications > 1 and 0 < 8 * n * S <= CACHE_BYTES:
+            cache = np.empty((S, n))  # time-major, as the outputs held in memory
+
+            def fill(rows):
+                self.transient(rows, slice(0, S), cache[:, rows].T)
+
+            for _ in map_threads(fill, _row_blocks(0, n, S)):
+                pass
+            self._cache = cache
+
+    def transient(self, rows, times, out=None):
+        """The weights of ``rows`` at ``times`` (steps before ``steady``): (n_rows, n_steps).
+
+        Parameters
+        ----------
+        rows, times : slice
+        out : ndarray, shape (n_rows, n_steps), optional
+            Where to write them (default a new array).
+
+        Returns
+        -------
+        ndarray
+            A view of the kept weights, or ``out`` filled.
+        """
+        if self._cache is not None:
+            return self._cache[times, rows].T
+        # w_t = (V o V) omega_t                                          §2.2 (7)
+        w = np.matmul(np.square(self.V[rows]), self.omega[times].T, out=out)
+        return standardization_weights(w, self.exponent, out=w)
+
+    def scale(self, rows):
+        """The held weights of ``rows``, (n_rows, 1): ``W^(alpha)`` from ``steady`` on."""
+        return self._scale[rows, None]
+
+    def raw(self, rows, times):
+        """Raw weights ``w_t`` of ``rows`` at any steps, (n_rows, n_steps), for a diagnosis."""
+        first, stop, _ = times.indices(self.n_times)
+        index = np.minimum(np.arange(first, stop), len(self.omega) - 1)
+        return (self.V[rows] ** 2) @ self.omega[index].T
+
+    def projector(self):
+        """``V^T D V`` (r, r): ``zeta_t = V^T z_t`` from ``u_t`` in the steady state."""
+        if self._projector is None:
+            self.prepare()
+            self._projector = (self.V * self._scale[:, None]).T @ self.V
+        return self._projector
 
 
 class SpectralRows:
@@ -58,52 +165,45 @@ class SpectralRows:
 
     Parameters
     ----------
-    V : ndarray, shape (n_sources, r)
-    omega : ndarray, shape (n_times, r)
-        ``s^2 p_{t|t-1} / (s^2 p_{t|t-1} + 1)``: the raw weights are ``(V o V) omega``.
-    p_pred : ndarray, shape (n_times, r)
+    model : SpectralModel
+        The data-free part (:class:`skf_ref.method.paths.spectral.SpectralModel`): ``V``,
+        its recursions and standardizations.
     xi : ndarray, shape (n_times, r)
         Filtered singular coordinates ``V^T x_{t|t}``.
     exponent : float
     smoother : {None, "rts-standardized", "rts-state"}
-    xi_smoothed : ndarray, shape (n_times, r), optional
-        ``V^T x^s_t`` for ``"rts-state"``.
-    gains : (gamma, beta, a), optional
-        The smoother's gains (T-1, r), (T-1,) and the transition, for ``"rts-standardized"``.
     memory_limit : float, optional
         Bytes a whole output (:meth:`array`) may take; default half the memory available.
     """
 
-    def __init__(
-        self,
-        V,
-        omega,
-        p_pred,
-        xi,
-        exponent,
-        smoother,
-        xi_smoothed=None,
-        gains=None,
-        memory_limit=None,
-    ):
-        self.V, self.V_squared, self.omega = V, V**2, omega
-        self.n_sources, self.n_times = V.shape[0], len(omega)
-        self.exponent, self.smoother, self.gains = exponent, smoother, gains
-        self.memory_limit = memory_limit
-        self.xi, self.xi_smoothed = xi, xi_smoothed
-        root = np.sqrt(p_pred)
+    def __init__(self, model, xi, exponent, smoother, memory_limit=None):
+        recursions = model.recursions
+        self.V, self.a, self.xi = model.V, model.a, xi
+        self.n_sources, self.n_times = self.V.shape[0], len(xi)
+        self.steady = recursions.steady
+        self.exponent, self.smoother, self.memory_limit = exponent, smoother, memory_limit
+        self.standardization = model.standardization(exponent)
+        self.standardization.applications += 1
+        self.recursions = recursions
         # P_{t|t-1}^{-1/2} x = V diag(p^{-1/2}) xi                      §2.2 (6)
-        self.u = xi / root
-        self.u_smoothed = None if xi_smoothed is None else xi_smoothed / root
+        self.u = self._whitened(xi)
+        self.xi_smoothed = self.u_smoothed = None
+        if smoother == "rts-state":
+            self.xi_smoothed = recursions.smooth_state(xi)
+            self.u_smoothed = self._whitened(self.xi_smoothed)
         self._delta = None
 
-    # --- one block of columns (sources), time-major ---------------------------------------
+    def _whitened(self, xi):
+        root = np.sqrt(self.recursions.p_pred)
+        own = len(root) - self.recursions.held
+        return np.concatenate([xi[:own] / root[:own], xi[own:] / root[-1]])
+
+    # --- one block of rows ------------------------------------------------------------------
 
     def block(self, name, columns, out=None, delta=None):
         """Rows ``columns`` of output ``name``, as a (n_times, n_rows) array.
 
-        Filled in sub-blocks of about :data:`BLOCK_BYTES` on worker threads
-        (:func:`skf_ref.method.paths.singular_basis.map_threads`), then smoothed as a whole.
+        Computed in tiles on worker threads (:func:`~.singular_basis.map_threads`).
 
         Parameters
         ----------
@@ -112,101 +212,165 @@ class SpectralRows:
             With a step of 1.
         out : ndarray, shape (n_times, n_rows), optional
             Where to write.
-        delta : ndarray, shape (n_times, r), optional
+        delta : ndarray, optional
             The "rts-standardized" correction (:meth:`correction_from`); default computed
             here by a pass over every row (:meth:`correction`).
 
         Returns
         -------
         ndarray, shape (n_times, n_rows)
+            The transpose of a C-ordered (n_rows, n_times) array unless ``out`` is given.
         """
         first, stop, _ = columns.indices(self.n_sources)
-        out = np.empty((self.n_times, stop - first)) if out is None else out
-
-        def fill(part):
-            self._filtered(name, part, out[:, part.start - first : part.stop - first])
-
-        for _ in map_threads(fill, self._column_blocks(first, stop)):
-            pass
+        target = np.empty((stop - first, self.n_times)) if out is None else out.T
         if name == "z" and self.smoother == "rts-standardized":
-            self._smooth(columns, out, self.correction() if delta is None else delta)
-        return out
+            delta = self.correction() if delta is None else delta
+            self._fill_smoothed(first, stop, target, delta)
+        else:
+            self._fill(name, first, stop, target)
+        return target.T
 
-    def _filtered(self, name, columns, out):
-        """``block`` without the "rts-standardized" correction, for one cache-sized block."""
+    def _fill(self, name, first, stop, target):
+        """Output ``name`` (not the paper's smoothed z) of rows first:stop into ``target``."""
+        if name in ("z", "z_filtered", "weights"):
+            self.standardization.prepare()
+
+        def tile(item):
+            rows, times = item
+            self._tile(name, rows, times, target[rows.start - first : rows.stop - first, times])
+
+        for _ in map_threads(tile, _tiles(first, stop, self.n_times)):
+            pass
+
+    def _tile(self, name, rows, times, out):
+        """Output ``name`` of ``rows`` at ``times`` into ``out`` (n_rows, n_steps)."""
         if name == "x_filtered" or (name == "x" and self.smoother != "rts-state"):
-            return np.matmul(self.xi, self.V[columns].T, out=out)
+            return np.matmul(self.V[rows], self.xi[times].T, out=out)
         if name == "x":
-            return np.matmul(self.xi_smoothed, self.V[columns].T, out=out)
+            return np.matmul(self.V[rows], self.xi_smoothed[times].T, out=out)
+        transient, held = _split(times, self.steady)
         if name == "weights":
-            return standardization_weights(self._raw(columns, out), self.exponent, out=out)
+            if transient:
+                part = out[:, : transient.stop - transient.start]
+                weights = self.standardization.transient(rows, transient, part)
+                if weights is not part:
+                    part[...] = weights
+            if held:
+                out[:, held.start - times.start :] = self.standardization.scale(rows)
+            return out
         smoothed = name == "z" and self.smoother == "rts-state"
-        return self._standardized(self.u_smoothed if smoothed else self.u, columns, out)
+        return self._standardized(self.u_smoothed if smoothed else self.u, rows, times, out)
 
-    def _raw(self, columns, out, times=slice(None)):
-        # w_t = (V o V) omega_t                                        §2.2 (7)
-        return np.matmul(self.omega[times], self.V_squared[columns].T, out=out)
-
-    def _standardized(self, u, columns, out, times=slice(None)):
-        """``z`` of these columns at steps ``times`` into ``out`` (n_steps, k), a few time
-        steps at a time: on long recordings a block of :data:`MIN_BLOCK_COLUMNS` is larger
-        than the cache."""
-        first, stop, _ = times.indices(self.n_times)
-        step = max(1, BLOCK_BYTES // (8 * out.shape[1]))
-        work = np.empty((min(step, stop - first), out.shape[1]))
-        for start in range(first, stop, step):
-            steps = slice(start, min(start + step, stop))
-            part = out[start - first : steps.stop - first]
-            w = work[: len(part)]
-            # z_t = W_t^(alpha) V diag(p_pred^{-1/2}) xi_t           §2.2 (6)-(7)
-            np.matmul(u[steps], self.V[columns].T, out=part)
-            standardized_means(self._raw(columns, w, steps), part, self.exponent, out=part)
+    def _standardized(self, u, rows, times, out):
+        """``z_t = W_t^(alpha) V u_t`` of ``rows`` at ``times`` into ``out``.  §2.2 (6)-(7)"""
+        transient, held = _split(times, self.steady)
+        V = self.V[rows]
+        if transient:
+            part = out[:, : transient.stop - transient.start]
+            np.matmul(V, u[transient].T, out=part)
+            part *= self.standardization.transient(rows, transient, np.empty_like(part))
+        if held:  # one product: z_t = (D V) u_t
+            part = out[:, held.start - times.start :]
+            np.matmul(V * self.standardization.scale(rows), u[held].T, out=part)
         return out
 
-    def _smooth(self, columns, out, delta):
-        """s = h + V delta (spectral module docstring) over z_{t|t} of ``columns``, in place.
+    # --- the paper's smoother ---------------------------------------------------------------
 
-        The backward recursion is one scalar gain per step for every row: over a whole
-        (T, n) array it costs T vector operations, over blocks T per block.
+    def _transient(self, rows, out, share):
+        """z_{t|t} of ``rows`` before ``steady`` into ``out`` (n_rows, n_times), and this
+        block's share of ``zeta`` there when ``share`` (else None)."""
+        z = self._standardized(self.u, rows, slice(0, self.steady), out[:, : self.steady])
+        return z.T @ self.V[rows] if share else None
+
+    def _smooth_transient(self, time_major, columns, eta):
+        """The smoothed ``h`` before ``steady`` of ``columns``, in place of their z_{t|t} in
+        ``time_major`` (n_times, n_rows): the scalar recursion from
+        ``h_steady = D V eta_0`` (or from ``z_T`` if the recording ends before ``steady``).
+
+        Over wide arrays (whole rows held in memory) it runs step by step on contiguous
+        memory; over narrow blocks (streamed) :data:`~.recursions.CHUNK_STEPS` steps at a
+        time (:func:`~.recursions.backward`).
         """
-        gamma, beta, a = self.gains
-        backward(out, beta, a, overwrite=True)  # h: scalar gains, row by row
-        _add_product(out, delta, self.V[columns])
+        S = self.steady
+        _, beta = self.recursions.gains
+        h = time_major[: S + 1] if S < self.n_times else time_major
+        if S < self.n_times:  # the boundary h_S = D V eta_0
+            scale = self.standardization.scale(columns)[:, 0]
+            np.multiply(self.V[columns] @ eta[0], scale, out=h[S])
+        backward(h, beta[: len(h) - 1], self.a, overwrite=True)
 
-    def projection(self, columns, times=slice(None)):
+    def _corrected(self, rows, times, out, correction):
+        """``s = h + V delta`` of ``rows`` at ``times``: ``out`` holds ``h`` before steady;
+        from ``steady`` on ``s_t = [D V, V] [eta_t; delta_t]``, one product."""
+        transient, held = _split(times, self.steady)
+        V = self.V[rows]
+        r = V.shape[1]
+        if transient:
+            part = out[:, : transient.stop - transient.start]
+            _add_product(part, V, correction[transient, r:])
+        if held:
+            stacked = np.hstack([V * self.standardization.scale(rows), V])
+            np.matmul(stacked, correction[held].T, out=out[:, held.start - times.start :])
+        return out
+
+    def _fill_smoothed(self, first, stop, target, correction):
+        """The paper's smoothed z of rows first:stop into ``target`` (n_rows, n_times)."""
+        S = self.steady
+        eta = correction[S:, : self.V.shape[1]]
+
+        def rows_of(rows):
+            where = target[rows.start - first : rows.stop - first]
+            self._transient(rows, where, share=False)
+            if S:
+                self._smooth_transient(where.T, rows, eta)
+
+        for _ in map_threads(rows_of, _row_blocks(first, stop, S + 1)):
+            pass
+        self._correct(first, stop, target, correction)
+
+    def _correct(self, first, stop, target, correction):
+        """``s = h + V delta`` of rows first:stop into ``target`` (n_rows, n_times), which
+        holds ``h`` before the steady state (:meth:`_corrected`), tile by tile."""
+
+        def tile(item):
+            rows, times = item
+            where = target[rows.start - first : rows.stop - first, times]
+            self._corrected(rows, times, where, correction)
+
+        for _ in map_threads(tile, _tiles(first, stop, self.n_times)):
+            pass
+
+    def projection(self, columns, times=None):
         """These rows' share of ``zeta = V^T z_{t|t}`` at steps ``times``: (n_steps, r).
 
-        The shares of disjoint rows add up to ``zeta``. Computed a few time steps at a time:
-        no (n_steps, n_rows) array is formed.
+        ``times`` defaults to the steps before the steady state, the only ones
+        :meth:`correction_from` needs (after it ``zeta`` follows from ``u``). The shares of
+        disjoint rows add up to ``zeta``. No (n_steps, n_rows) array is formed.
         """
-        first, stop, _ = times.indices(self.n_times)
+        first, stop, _ = (slice(0, self.steady) if times is None else times).indices(self.n_times)
+        self.standardization.prepare()
         share = np.zeros((stop - first, self.V.shape[1]))
-        tile = max(1, BLOCK_BYTES // (8 * MIN_BLOCK_COLUMNS))
-        for start in range(first, stop, tile):
-            steps = slice(start, min(start + tile, stop))
-            width = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * (steps.stop - start)))
-            work = np.empty((steps.stop - start, width))
-            for block in _slices(*columns.indices(self.n_sources)[:2], width):
-                z = self._standardized(self.u, block, work[:, : block.stop - block.start], steps)
-                share[start - first : steps.stop - first] += z @ self.V[block]
+        for steps, rows in _tiles_by_steps(*columns.indices(self.n_sources)[:2], first, stop):
+            shape = (rows.stop - rows.start, steps.stop - steps.start)
+            z = self._standardized(self.u, rows, steps, np.empty(shape))
+            share[steps.start - first : steps.stop - first] += z.T @ self.V[rows]
         return share
 
-    def _projected(self, columns, out):
-        """``zeta``'s share of these rows, with ``z_{t|t}`` of these rows left in ``out``."""
-        return self._standardized(self.u, columns, out) @ self.V[columns]
-
     def correction(self):
-        """delta (T, r) of the spectral module docstring, by one pass over every row.
+        """The "rts-standardized" correction (:meth:`correction_from`), by one pass over
+        every row; computed once, then kept.
 
         ``zeta`` is summed over groups of :data:`PROJECTION_COLUMNS` rows in a fixed order,
         per tile of :data:`PROJECTION_STEPS` steps on worker threads: the same bits whatever
-        the number of threads, and memory of a few (tile, r) arrays, not (T, r) per block.
+        the number of threads.
         """
         if self._delta is None:
-            zeta = np.zeros_like(self.u)
+            self.standardization.prepare()
+            S = self.steady
+            zeta = np.zeros((S, self.V.shape[1]))
             items = [
                 (rows, steps)
-                for steps in _slices(0, self.n_times, PROJECTION_STEPS)
+                for steps in _slices(0, S, PROJECTION_STEPS)
                 for rows in _slices(0, self.n_sources, PROJECTION_COLUMNS)
             ]
             shares = map_threads(lambda item: self.projection(*item), items)
@@ -215,27 +379,52 @@ class SpectralRows:
             self._delta = self.correction_from(zeta)
         return self._delta
 
-    def correction_from(self, zeta):
-        """delta (T, r) from ``zeta = V^T z_{t|t}`` (T, r), the sum of :meth:`projection`."""
-        gamma, beta, a = self.gains
-        chi = backward(zeta, beta, a)  # = V^T h
-        delta = np.zeros_like(zeta)
-        for t in range(len(zeta) - 2, -1, -1):
-            # delta_t = gamma_t delta_{t+1} + (gamma_t - beta_t)(chi_{t+1} - a zeta_t)
-            delta[t] = gamma[t] * delta[t + 1] + (gamma[t] - beta[t]) * (chi[t + 1] - a * zeta[t])
-        return delta
+    def correction_from(self, zeta, eta=None):
+        """The correction from ``zeta = V^T z_{t|t}`` before the steady state.
 
-    def _column_blocks(self, first, stop):
-        """Slices of columns ``first:stop`` of about :data:`BLOCK_BYTES` of (T, k) each."""
-        return _slices(first, stop, max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * self.n_times)))
+        Parameters
+        ----------
+        zeta : ndarray, shape (steady, r)
+            The sum of :meth:`projection` over every row.
+        eta : ndarray, shape (n_times - steady, r), optional
+            The rank-r smoothed ``h`` of the steady state (default computed here).
+
+        Returns
+        -------
+        ndarray, shape (n_times, 2 r)
+            ``[eta_t, delta_t]``: ``delta`` of the spectral module docstring in the last
+            r columns, ``eta`` in the first r from ``steady`` on (zeros before).
+        """
+        S, T, r = self.steady, self.n_times, self.V.shape[1]
+        full = np.empty((T, r))
+        full[:S] = zeta
+        if S < T:
+            np.matmul(self.u[S:], self.standardization.projector(), out=full[S:])
+        correction = np.zeros((T, 2 * r))
+        correction[:, r:] = self.recursions.correction(full)
+        if S < T:
+            correction[S:, :r] = self._steady_means() if eta is None else eta
+        return correction
+
+    def _steady_means(self):
+        """eta (T - steady, r): ``h_t = D V eta_t`` from ``steady`` on (h's scalar recursion
+        on ``u``, which stays in span ``D V`` there)."""
+        _, beta = self.recursions.gains
+        return backward(self.u[self.steady :], beta[self.steady :], self.a)
 
     # --- a whole output in memory -------------------------------------------------------
 
     def array(self, name):
-        """Output ``name`` whole, (n_times, n_sources), filled block by block in threads.
+        """Output ``name`` whole, (n_times, n_sources), filled tile by tile in threads.
 
-        ``"z"`` of ``"rts-standardized"`` is filled with ``z_{t|t}`` and the projection
-        ``zeta`` in one pass, then smoothed in place: one (T, n) array.
+        ``"z"`` of ``"rts-standardized"`` is filled with ``z_{t|t}`` before the steady state
+        and the projection ``zeta`` in one pass, smoothed in place, then corrected: one
+        (n, T) array.
+
+        Returns
+        -------
+        ndarray, shape (n_times, n_sources)
+            C-ordered: the scalar recursion of the paper's smoother runs along its rows.
         """
         n, T = self.n_sources, self.n_times
         memory.require(
@@ -245,25 +434,38 @@ class SpectralRows:
             budget=self.memory_limit,
         )
         result = np.empty((T, n))
-        if name == "z" and self.smoother == "rts-standardized" and self._delta is None:
-            zeta = np.zeros_like(self.u)
-
-            def fill(columns):
-                return self._projected(columns, result[:, columns])
-
-            for share in map_threads(fill, self._column_blocks(0, n)):
+        if not (name == "z" and self.smoother == "rts-standardized" and self._delta is None):
+            return self.block(name, slice(0, n), out=result)
+        self.standardization.prepare()
+        S = self.steady
+        eta = self._steady_means() if S < T else None
+        zeta = np.zeros((S, self.V.shape[1]))
+        if S:
+            blocks = _row_blocks(0, n, S)
+            for share in map_threads(lambda b: self._transient(b, result[:, b].T, True), blocks):
                 zeta += share  # in block order, whatever the number of threads
-            self._delta = self.correction_from(zeta)
-            self._smooth(slice(None), result, self._delta)  # whole rows: T steps, not T a block
-            return result
-        return self.block(name, slice(0, n), out=result)
+            parts = list(_slices(0, n, max(CHUNK_COLUMNS, -(-n // 8))))
+            for _ in map_threads(lambda p: self._smooth_transient(result[:, p], p, eta), parts):
+                pass
+        self._delta = self.correction_from(zeta, eta)
+        eta = None  # copied into the correction
+        self._correct(0, n, result.T, self._delta)
+        return result
 
     def min_raw_weight(self):
         """The smallest raw weight over every source and step (only to explain a failure)."""
+        steps = slice(0, min(self.steady + 1, self.n_times))
         return min(
-            np.min(self._raw(columns, np.empty((self.n_times, columns.stop - columns.start))))
-            for columns in self._column_blocks(0, self.n_sources)
+            np.min(self.standardization.raw(rows, steps))
+            for rows in _slices(0, self.n_sources, max(1, BLOCK_BYTES // (8 * steps.stop)))
         )
+
+
+def _split(times, steady):
+    """``times`` cut at ``steady``: the steps before it and from it on (None when empty)."""
+    first, stop = times.start, times.stop
+    cut = min(max(steady, first), stop)
+    return (slice(first, cut) if cut > first else None), (slice(cut, stop) if stop > cut else None)
 
 
 def _slices(first, stop, step):
@@ -272,18 +474,40 @@ def _slices(first, stop, step):
         yield slice(start, min(start + step, stop))
 
 
-def _add_product(out, delta, V_rows):
-    """``out += delta @ V_rows.T`` ((T, k) += (T, r) (r, k)) without a (T, k) temporary.
+def _row_blocks(first, stop, n_steps):
+    """Row blocks of ``first:stop`` of about :data:`BLOCK_BYTES` at ``n_steps`` steps."""
+    return list(_slices(first, stop, max(1, BLOCK_BYTES // (8 * n_steps))))
 
-    BLAS gemm with beta = 1 accumulates into ``out`` where it is C-contiguous (its
-    transpose is the column-major (k, T) matrix gemm writes); elsewhere numpy.
-    """
+
+def _tiles(first, stop, n_times):
+    """(rows, steps) tiles of rows ``first:stop`` x all steps, about BLOCK_BYTES each:
+    whole rows when they fit MIN_BLOCK_COLUMNS at a time, else cut in steps too."""
+    rows = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * n_times))
+    steps = max(1, BLOCK_BYTES // (8 * min(rows, max(1, stop - first))))
+    return [(r, t) for r in _slices(first, stop, rows) for t in _slices(0, n_times, steps)]
+
+
+def _tiles_by_steps(first, stop, step_first, step_stop):
+    """(steps, rows) tiles of the steps ``step_first:step_stop``, steps outermost."""
+    n = step_stop - step_first
+    width = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * max(1, min(n, 8192))))
+    for steps in _slices(step_first, step_stop, 8192):
+        for rows in _slices(first, stop, width):
+            yield steps, rows
+
+
+def _add_product(out, V_rows, delta):
+    """``out += V_rows @ delta.T`` ((k, n) += (k, r) (r, n)) without a (k, n) temporary
+    where ``out`` is C-contiguous (BLAS gemm with beta = 1 accumulates into it); else
+    through a temporary in ``out``'s own order."""
     if not out.flags.c_contiguous:
-        out += delta @ V_rows.T
+        if out.strides[0] < out.strides[1]:  # a view of a time-major array
+            out.T[...] += delta @ V_rows.T
+        else:
+            out += V_rows @ delta.T
         return out
-    # out^T (k, T) += V_rows (k, r) @ delta^T (r, T), every operand column-major
-    a, trans_a = (V_rows.T, 1) if V_rows.flags.c_contiguous else (V_rows, 0)
-    blas.dgemm(
-        1.0, a, np.ascontiguousarray(delta).T, beta=1.0, c=out.T, trans_a=trans_a, overwrite_c=1
-    )
+    # out^T (n, k) += delta (n, r) @ V_rows^T (r, k), every operand column-major
+    a = np.asfortranarray(delta)
+    b, trans_b = (V_rows, 1) if V_rows.flags.f_contiguous else (V_rows.T, 0)
+    blas.dgemm(1.0, a, b, beta=1.0, c=out.T, trans_b=trans_b, overwrite_c=1)
     return out
