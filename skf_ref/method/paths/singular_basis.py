@@ -307,7 +307,8 @@ class SpectralBasis:
         r"""The whitened residual of the filtered means, ``sum_t ||C^{-1} (y_t - L x_{t|t})||^2``.
 
         For each of many priors, with no (n, T) array: on span U the residual is the
-        innovation divided by ``s^2 p_{t|t-1} + 1`` (:meth:`.Recursions.filter_means`); off span U it is
+        innovation divided by ``s^2 p_{t|t-1} + 1``
+        (:meth:`.Recursions.filter_means`); off span U it is
         the data's own part there, whatever the priors. The discrepancy principle
         (docs/model.md §4) sets it to ``n_channels * n_times``.
 
