@@ -247,3 +247,28 @@ def test_standardized_means_equal_the_z_of_standardize(exponent):
     np.testing.assert_array_equal(standardized_means(w, whitened, exponent), z)
     np.testing.assert_allclose(weights, w**-exponent, rtol=4e-16 * (1 + 4 * exponent))
     np.testing.assert_allclose(z, whitened * w**-exponent, rtol=4e-16 * (2 + 4 * exponent))
+
+
+def test_time_major_tiles_cover_every_entry_once_in_wide_runs():
+    from skf_ref.method.paths.spectral_rows import TIME_MAJOR_COLUMNS, _tiles
+
+    n, T = 2 * TIME_MAJOR_COLUMNS + 5, 300
+    for target, width in ((np.empty((T, n)).T, TIME_MAJOR_COLUMNS), (np.empty((n, T)), None)):
+        seen = np.zeros((n, T), dtype=int)
+        tiles = _tiles(0, n, T, target)
+        for rows, times in tiles:
+            seen[rows, times] += 1
+        assert np.all(seen == 1)
+        if width:  # each step of a tile one contiguous run of TIME_MAJOR_COLUMNS rows
+            assert tiles[0][0] == slice(0, width)
+        else:  # source-major: whole rows
+            assert all(times == slice(0, T) for _, times in tiles)
+
+
+@pytest.mark.parametrize("order", ["C", "F"])
+def test_amplitude_on_worker_threads_equals_the_norm(order):
+    from skf_ref.method.result import amplitude_from_components
+
+    z = np.asarray(np.random.default_rng(3).standard_normal((3 * 700, 900)), order=order)
+    expected = np.linalg.norm(z.reshape(700, 3, 900), axis=1)
+    np.testing.assert_allclose(amplitude_from_components(z, 3), expected, rtol=1e-15)

@@ -43,9 +43,23 @@ def amplitude_from_components(z, n_components=3):
     if n_components == 1:
         return np.abs(z)
     if z.flags.f_contiguous and not z.flags.c_contiguous:  # time-major, as the paths hold it
+        from .paths.singular_basis import map_threads  # (the paths import this module)
+
         per_time = z.T.reshape(z.shape[1], -1, n_components)  # a view: (T, positions, k)
-        return _norm_of_last(per_time).T
+        out = np.empty(per_time.shape[:2])
+        steps = max(1, _AMPLITUDE_BYTES // (8 * z.shape[0]))  # on every core, step blocks
+
+        def block(times):
+            out[times] = _norm_of_last(per_time[times])
+
+        for _ in map_threads(block, (slice(t, t + steps) for t in range(0, len(out), steps))):
+            pass
+        return out.T
     return _norm_of_last(np.moveaxis(z.reshape(-1, n_components, z.shape[1]), 1, 2))
+
+
+#: Bytes of z per work item of the amplitude's worker threads.
+_AMPLITUDE_BYTES = 4 * 2**20
 
 
 def _norm_of_last(x):
