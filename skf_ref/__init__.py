@@ -53,6 +53,9 @@ _HOMES = {
     "apply_skf_raw": "io.raw",
     "make_skf_operator": "io.operator",
     "SKFOperator": "io.operator",
+    "write_skf_operator": "io.operator_file",
+    "read_skf_operator": "io.operator_file",
+    "read_skf_stream": "io.stream",
     "compare": "conformance.compare",
 }
 

@@ -181,7 +181,11 @@ def test_what_the_operator_cannot_use_is_refused(problem, operator):
     with pytest.raises(InputError, match="noise_cov='baseline' needs the data"):
         make_skf_operator(evoked.info, setup["forward"], "baseline")
     with pytest.raises(InputError, match="meg=False and eeg=False pick no channel"):
+        make_skf_operator(evoked.info, setup["forward"], cov, meg=False, eeg=False)
+    with pytest.raises(InputError, match=r"no MEG channel is common .* types: eeg\)"):
         make_skf_operator(evoked.info, setup["forward"], cov, eeg=False)
+    with pytest.raises(InputError, match="meg=True asks for grad/mag channels, but none"):
+        make_skf_operator(evoked.info, setup["forward"], cov, meg=True)
 
 
 # --- the noise covariance ---------------------------------------------------------------
@@ -300,14 +304,16 @@ def test_channel_types_are_picked_by_argument(meg_eeg):
     evoked, forward, cov = meg_eeg
     grad = make_skf_operator(evoked.info, forward, cov, meg="grad", verbose=False)
     assert len(grad.ch_names) == 204 + 60 and len(grad.eeg_names) == 60
-    eeg_only = make_skf_operator(evoked.info, forward, cov, verbose=False)
+    shared = make_skf_operator(evoked.info, forward, cov, verbose=False)
+    assert len(shared.ch_names) == 366 and shared.rank == 365  # as apply_inverse takes them
+    eeg_only = make_skf_operator(evoked.info, forward, cov, meg=False, verbose=False)
     assert len(eeg_only.ch_names) == 60 and eeg_only.rank == 59
     stds = {"eeg": 1e-6, "grad": 1e-11, "mag": 1e-12}
     both = make_skf_operator(evoked.info, forward, noise_std=stds, meg=True, verbose=False)
     assert both.rank == 365 and np.isfinite(apply_skf(evoked, both).data).all()
-    with pytest.raises(InputError, match="noise_std must be a dict .* when MEG is used"):
+    with pytest.raises(InputError, match=r"noise_std must be a dict naming each channel type"):
         make_skf_operator(evoked.info, forward, noise_std=1e-6, meg=True)
-    with pytest.raises(InputError, match=r"meg must be True, False, 'mag' or 'grad'"):
+    with pytest.raises(InputError, match=r"meg must be None, True, False, 'mag' or 'grad'"):
         make_skf_operator(evoked.info, forward, cov, meg="planar")
 
 

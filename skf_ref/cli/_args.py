@@ -15,8 +15,12 @@ __all__ = [
     "report_tuning",
 ]
 
-# Negative numbers, infinities and NaN are values, not options: "--snr-db -inf" parses.
-_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+# Negative numbers, infinities and NaN are values, not options: "--snr-db -inf" parses, and so
+# does a range of them, "--pm-snr-db -40,20".
+_REAL = r"[-+]?((\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|inf|infinity|nan)"
+_NUMBER = re.compile(
+    rf"^-((\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|inf|infinity|nan)(,{_REAL})?$", re.IGNORECASE
+)
 
 
 class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -70,16 +74,34 @@ def _typed(check):
 def db(maximum=MAX_DB, auto=False):
     """A level in dB: finite, within +-``maximum`` (10**(dB/10) far from overflow).
 
-    With ``auto``, the word "auto" is accepted too (priors chosen by the data).
+    With ``auto``, priors the data choose are accepted too: the word "auto" (the default
+    range) or a range ``LOW,HIGH`` in dB to search, e.g. ``-40,20`` (a tuple).
+
+    Examples
+    --------
+    >>> parse = db(auto=True)
+    >>> parse("-3"), parse("auto"), parse("-40,20")
+    (-3.0, 'auto', (-40.0, 20.0))
     """
 
-    def level(text):
-        if auto and text == "auto":
-            return text
+    def number(text):
         value = check_real("value", _number(text))
         if abs(value) > maximum:
             raise InputError(f"value must be within +-{maximum:g} dB, got {text}")
         return value
+
+    def level(text):
+        if auto and text == "auto":
+            return text
+        if auto and "," in text:
+            parts = text.split(",")
+            if len(parts) != 2:
+                raise InputError(f"value must be one number, auto or LOW,HIGH, got {text!r}")
+            low, high = (number(part.strip()) for part in parts)
+            if not low < high:
+                raise InputError(f"value must be a range LOW,HIGH with LOW < HIGH, got {text!r}")
+            return (low, high)
+        return number(text)
 
     return _typed(level)
 
@@ -126,11 +148,20 @@ def report_tuning(args, tuning):
 
 def add_skf_options(parser, *, exponent, smoother, smoother_help):
     """The SKF's options, shared by the commands that run one: priors, exponent, smoother."""
+    chosen = "; or chosen by the data: auto (searched in -20..40 dB) or LOW,HIGH (e.g. -40,20)"
     parser.add_argument(
-        "--pm-snr-db", type=db(auto=True), default=0.0, help="PM-SNR prior (dB, or auto)"
+        "--pm-snr-db",
+        type=db(auto=True),
+        default=0.0,
+        metavar="DB",
+        help=f"PM-SNR prior (dB{chosen})",
     )
     parser.add_argument(
-        "--ep-snr-db", type=db(auto=True), default=20.0, help="EP-SNR prior (dB, or auto)"
+        "--ep-snr-db",
+        type=db(auto=True),
+        default=20.0,
+        metavar="DB",
+        help=f"EP-SNR prior (dB{chosen})",
     )
     parser.add_argument(
         "--exponent", type=nonnegative(), default=exponent, help="standardization exponent alpha"

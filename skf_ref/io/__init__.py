@@ -7,6 +7,9 @@
   :func:`apply_skf_raw` along a continuous recording;
 - :mod:`.channels` and :mod:`.noise_cov`: the channels an operator uses, their reference,
   and the noise covariance it whitens with;
+- :mod:`.operator_file`: operators saved and read (:func:`write_skf_operator`,
+  :func:`read_skf_operator`); :mod:`.stream`: a store written by :func:`apply_skf_raw`
+  read back as a source estimate over a span of time (:func:`read_skf_stream`);
 - :mod:`.stc`: a reconstruction as an MNE source estimate;
 - :mod:`.files`: lead fields and data from ``.npy``, ``.npz``, ``.mat``, ``.csv`` and MNE's
   ``.fif``; reconstructions written to ``.npz``, ``.mat``, ``.stc``/``.h5``;
@@ -28,11 +31,13 @@ _HOMES = {
     "write_stc": "files",
     "SKFOperator": "operator",
     "make_skf_operator": "operator",
+    "read_skf_operator": "operator_file",
+    "write_skf_operator": "operator_file",
+    "read_skf_stream": "stream",
     "apply_skf": "apply",
     "apply_skf_epochs": "apply",
     "apply_skf_raw": "raw",
     "baseline_covariance": "noise_cov",
-    "prepare": "apply",
     "make_stc": "stc",
     "stc_to_zarr": "zarr_dask",
     "to_dask": "zarr_dask",
