@@ -157,15 +157,35 @@ def measure(runners, repeats):
     return pd.DataFrame(rows)
 
 
-def summarize(rounds, size, made, load_before, load_after, blas_limit=None):
+def summarize(
+    rounds, size, made, load_before, load_after, blas_limit=None, targets=None, reference=None
+):
     """Medians and IQRs per path, and of each round's ratio to MNE's time.
+
+    Parameters
+    ----------
+    rounds : pandas.DataFrame
+        :func:`measure`'s.
+    size : dict
+        What was measured (``n_columns``, ``n_channels``, ``n_times``, ...): a column each.
+    made : dict
+        Seconds each operator took to make; the SKF paths share ``made["skf"]``.
+    load_before, load_after : tuple of float
+        ``os.getloadavg()``.
+    blas_limit : int, optional
+    targets : dict, optional
+        Each path's target ratio (default :data:`TARGETS`).
+    reference : str, optional
+        The path the ratios divide by (default ``"mne-sloreta"``).
 
     Returns
     -------
     pandas.DataFrame
         One row per path.
     """
-    mne_time = rounds[rounds.path == "mne-sloreta"].set_index("round")["seconds"]
+    targets = TARGETS if targets is None else targets
+    reference = "mne-sloreta" if reference is None else reference
+    mne_time = rounds[rounds.path == reference].set_index("round")["seconds"]
     blas = blas_threads()
     described = "; ".join(f"{b['library']} {b['version']} ({b['threads']})" for b in blas)
     rows = []
@@ -181,14 +201,12 @@ def summarize(rounds, size, made, load_before, load_after, blas_limit=None):
         }
         rows.append(
             dict(
-                n_columns=size[0],
-                n_channels=size[1],
-                n_times=size[2],
+                **size,
                 path=path,
                 rounds=len(group),
                 **{f"{k}_median": q[1] for k, q in quartiles.items()},
                 **{f"{k}_iqr": q[2] - q[0] for k, q in quartiles.items()},
-                target=TARGETS.get(path, np.nan),
+                target=targets.get(path, np.nan),
                 made_seconds=made.get(path, made["skf"] if path.startswith("skf") else np.nan),
                 blas=described or "none",
                 blas_threads=max((b["threads"] for b in blas), default=1),
@@ -311,7 +329,8 @@ def run(size=SIZE, repeats=15, blas_limit=None, with_profile=False):
         load_before = os.getloadavg()
         rounds = measure(runners, repeats)
         load_after = os.getloadavg()
-        table = summarize(rounds, size, made, load_before, load_after, blas_limit)
+        fields = dict(n_columns=size[0], n_channels=size[1], n_times=size[2])
+        table = summarize(rounds, fields, made, load_before, load_after, blas_limit)
         profiles, stage_times = {}, {}
         if with_profile:
             profiles = {path: profile(runners[path]) for path in ("mne-sloreta", "skf")}

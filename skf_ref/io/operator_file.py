@@ -32,6 +32,7 @@ readable.
 from __future__ import annotations
 
 import tempfile
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -66,7 +67,10 @@ def _file_name(fname: Any) -> Path:
 def _forward_bytes(forward: Any) -> np.ndarray:
     """The forward as MNE's ``-fwd.fif`` file, in bytes."""
     mne = optional("mne", "mne", "write_skf_operator")
-    with tempfile.TemporaryDirectory() as folder:
+    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+        # MNE stores a fixed forward made from a free one as the free one: the reader
+        # converts it again (fixed, surface oriented) and puts the gain in place
+        warnings.filterwarnings("ignore", "This forward solution is based on", RuntimeWarning)
         path = Path(folder) / "operator-fwd.fif"
         mne.write_forward_solution(path, forward, verbose=False)
         return np.frombuffer(path.read_bytes(), dtype=np.uint8)
@@ -120,7 +124,8 @@ def write_skf_operator(fname: str | Path, operator: SKFOperator, overwrite: bool
     >>> sphere = mne.make_sphere_model("auto", "auto", info, verbose=False)
     >>> src = mne.setup_volume_source_space(sphere=sphere, pos=40.0, verbose=False)
     >>> forward = mne.make_forward_solution(info, None, src, sphere, verbose=False)
-    >>> operator = skf_ref.make_skf_operator(info, forward, noise_std=1e-6, verbose=False)
+    >>> from skf_ref import make_skf_operator
+    >>> operator = make_skf_operator(info, forward, noise_std=1e-6, verbose=False)
     >>> fname = pathlib.Path(tempfile.mkdtemp()) / "demo-skf.h5"
     >>> read = read_skf_operator(write_skf_operator(fname, operator))
     >>> read  # doctest: +ELLIPSIS
