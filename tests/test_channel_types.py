@@ -86,8 +86,11 @@ def test_a_projector_that_leaves_out_a_channel_in_use_is_refused(problem):
 
 def test_noise_std_names_every_type_in_use(problem):
     forward, evoked, _, _ = problem
-    with pytest.raises(InputError, match=r"noise_std must name every channel type in use, "
-                                         r"\['eeg'\]: it lacks \['eeg'\]"):  # fmt: skip
+    with pytest.raises(
+        InputError,
+        match=r"noise_std must name every channel type in use, "
+        r"\['eeg'\]: it lacks \['eeg'\]",
+    ):
         apply_skf(evoked, forward, noise_std={"mag": 1e-14})
     with pytest.raises(InputError, match=r"noise_std's keys must be among .* got \['EEG'\]"):
         apply_skf(evoked, forward, noise_std={"EEG": 1e-6})

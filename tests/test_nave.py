@@ -35,8 +35,9 @@ def sphere():
     pulse = np.where(times > 0, np.sin(np.pi * np.clip(times, 0, 0.04) / 0.04), 0.0)
     gain = forward["sol"]["data"][:, 30:33] @ [0.0, 0.6, 0.8]
     noise = 5e-6 * rng.standard_normal((60, 32, 40))
-    epochs = mne.EpochsArray(np.outer(gain, 20e-9 * pulse) + noise, info, tmin=-0.02,
-                             verbose=False)  # fmt: skip
+    epochs = mne.EpochsArray(
+        np.outer(gain, 20e-9 * pulse) + noise, info, tmin=-0.02, verbose=False
+    )
     epochs.set_eeg_reference("average", projection=True, verbose=False)
     cov = mne.compute_covariance(epochs, verbose=False)
     return dict(info=info, sphere=sphere, forward=forward, epochs=epochs, cov=cov)
@@ -47,8 +48,9 @@ def relative(a, b):
 
 
 def _scaled(cov, factor):
-    return mne.Covariance(cov.data * factor, cov["names"], [], cov["projs"], cov["nfree"],
-                          verbose=False)  # fmt: skip
+    return mne.Covariance(
+        cov.data * factor, cov["names"], [], cov["projs"], cov["nfree"], verbose=False
+    )
 
 
 def _evoked(sphere, nave):
@@ -113,16 +115,21 @@ def test_epochs_take_nave_as_apply_inverse_epochs(sphere):
     for nave in (1, 5):
         estimates = apply_skf_epochs(epochs, operator, nave=nave)
         for k, stc in enumerate(estimates):
-            evoked = mne.EvokedArray(epochs.get_data()[k], epochs.info, tmin=epochs.times[0],
-                                     nave=nave, verbose=False)  # fmt: skip
+            evoked = mne.EvokedArray(
+                epochs.get_data()[k], epochs.info, tmin=epochs.times[0], nave=nave, verbose=False
+            )
             np.testing.assert_array_equal(stc.data, apply_skf(evoked, operator).data)
 
 
 def test_a_baseline_covariance_is_that_of_one_trial(sphere):
     # the average's own baseline covariance, times nave: the evoked is whitened with the
     # covariance of its baseline whatever its nave
-    long = mne.EpochsArray(np.concatenate([sphere["epochs"].get_data()] * 2, axis=2),
-                           sphere["info"], tmin=-0.1, verbose=False)  # fmt: skip
+    long = mne.EpochsArray(
+        np.concatenate([sphere["epochs"].get_data()] * 2, axis=2),
+        sphere["info"],
+        tmin=-0.1,
+        verbose=False,
+    )
     long.set_eeg_reference("average", projection=True, verbose=False)
     evoked = long.average()
     baseline = evoked.data[:, evoked.times <= 0]
@@ -131,8 +138,9 @@ def test_a_baseline_covariance_is_that_of_one_trial(sphere):
     np.testing.assert_allclose(cov.data, evoked.nave * of_average, rtol=1e-12)
     as_one_trial = evoked.copy()
     as_one_trial.nave = 1
-    given = mne.Covariance(of_average, evoked.ch_names, [], evoked.info["projs"], 50,
-                           verbose=False)  # fmt: skip
+    given = mne.Covariance(
+        of_average, evoked.ch_names, [], evoked.info["projs"], 50, verbose=False
+    )
     expected = apply_skf(as_one_trial, sphere["forward"], given)
     assert relative(apply_skf(evoked, sphere["forward"], "baseline").data, expected.data) < 1e-9
 
@@ -145,12 +153,11 @@ def fixed(sphere):
     rr = grid["rr"][grid["vertno"]]
     nn = rng.standard_normal(rr.shape)
     nn /= np.linalg.norm(nn, axis=1, keepdims=True)
-    src = mne.setup_volume_source_space(pos=dict(rr=rr, nn=nn), sphere=sphere["sphere"],
-                                        verbose=False)  # fmt: skip
-    forward = mne.make_forward_solution(sphere["info"], None, src, sphere["sphere"],
-                                        verbose=False)  # fmt: skip
-    forward = mne.convert_forward_solution(forward, surf_ori=True, force_fixed=True,
-                                           verbose=False)  # fmt: skip
+    src = mne.setup_volume_source_space(
+        pos=dict(rr=rr, nn=nn), sphere=sphere["sphere"], verbose=False
+    )
+    forward = mne.make_forward_solution(sphere["info"], None, src, sphere["sphere"], verbose=False)
+    forward = mne.convert_forward_solution(forward, surf_ori=True, force_fixed=True, verbose=False)
     y = forward["sol"]["data"][:, [7]] * 1e-8 + 1e-6 * rng.standard_normal((32, 1))
     evoked = mne.EvokedArray(y, sphere["info"], nave=25, verbose=False)
     return forward, evoked.set_eeg_reference("average", projection=True, verbose=False)
@@ -169,8 +176,7 @@ def test_one_step_is_mne_sloreta(sphere, fixed, lambda2, ep_snr_db):
     inverse = mne.minimum_norm.make_inverse_operator(
         evoked.info, forward, sphere["cov"], loose=0.0, fixed=True, depth=None, verbose=False
     )
-    sloreta = mne.minimum_norm.apply_inverse(evoked, inverse, lambda2, "sLORETA",
-                                             verbose=False)  # fmt: skip
+    sloreta = mne.minimum_norm.apply_inverse(evoked, inverse, lambda2, "sLORETA", verbose=False)
     pm_snr_db = -10 * np.log10(lambda2) - 10 * np.log10(1 + 10 ** (ep_snr_db / 10))
     if ep_snr_db == -300.0:
         assert pm_snr_db == -10 * np.log10(lambda2)

@@ -72,8 +72,9 @@ def test_an_operator_read_gives_the_estimates_bit_for_bit(sample, tmp_path, sett
         np.testing.assert_array_equal(a.data, b.data)
         assert type(a) is type(b) and a.subject == b.subject
         np.testing.assert_array_equal(a.vertices[0], b.vertices[0])
-    for a, b in zip(apply_skf_epochs(epochs, written), apply_skf_epochs(epochs, read),
-                    strict=True):  # fmt: skip
+    for a, b in zip(
+        apply_skf_epochs(epochs, written), apply_skf_epochs(epochs, read), strict=True
+    ):
         np.testing.assert_array_equal(a.data, b.data)
 
 
@@ -124,8 +125,9 @@ def test_a_file_of_a_later_version_or_another_kind_is_refused(sample, tmp_path, 
 @pytest.fixture(scope="module")
 def stream(sample, tmp_path_factory):
     forward, epochs, cov = sample
-    raw = mne.io.RawArray(np.concatenate(list(epochs.get_data()), axis=1), epochs.info,
-                          verbose=False)  # fmt: skip
+    raw = mne.io.RawArray(
+        np.concatenate(list(epochs.get_data()), axis=1), epochs.info, verbose=False
+    )
     operator = make_skf_operator(raw.info, forward, cov, verbose=False)
     folder = tmp_path_factory.mktemp("stream")
     whole = apply_skf_raw(raw, operator)
@@ -176,8 +178,9 @@ def test_a_span_reads_only_its_chunks(sample, tmp_path):
     apply_skf_raw(raw, operator, out=tmp_path / "long-skf.zarr")
     counting = _Counting(zarr.storage.LocalStore(tmp_path / "long-skf.zarr", read_only=True))
     stc = read_skf_stream(zarr.open_group(counting, mode="r"), tmin=50.0, tmax=54.995)
-    np.testing.assert_allclose(stc.data, read_skf_stream(tmp_path / "long-skf.zarr").data[
-        :, 10000:11000], rtol=0, atol=0)  # fmt: skip
+    np.testing.assert_allclose(
+        stc.data, read_skf_stream(tmp_path / "long-skf.zarr").data[:, 10000:11000], rtol=0, atol=0
+    )
     array = zarr.open_group(tmp_path / "long-skf.zarr", mode="r")["data"]
     rows, times = array.chunks
     shards = -(-array.shape[0] // array.shards[0])

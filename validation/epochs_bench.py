@@ -216,8 +216,14 @@ def report(table, profiles=None, stage_times=None):
     return "\n".join(lines) + "\n"
 
 
-def run(folder, spacing_mm=SPACING_MM, n_epochs=N_EPOCHS, repeats=9, blas_limit=None,
-        with_profile=False):  # fmt: skip
+def run(
+    folder,
+    spacing_mm=SPACING_MM,
+    n_epochs=N_EPOCHS,
+    repeats=9,
+    blas_limit=None,
+    with_profile=False,
+):
     """The whole benchmark.
 
     Returns
@@ -268,9 +274,13 @@ def main(argv=None):
     parser.add_argument("--profile", action="store_true")
     args = parser.parse_args(argv)
     table, profiles, stage_times = run(
-        args.mne_testing_data, args.spacing, args.epochs, args.repeats, args.blas_threads,
+        args.mne_testing_data,
+        args.spacing,
+        args.epochs,
+        args.repeats,
+        args.blas_threads,
         args.profile,
-    )  # fmt: skip
+    )
     args.out.mkdir(parents=True, exist_ok=True)
     stem = "epochs" if args.blas_threads is None else f"epochs-blas{args.blas_threads}"
     with atomic_path(args.out / f"{stem}.csv") as tmp:

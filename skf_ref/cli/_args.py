@@ -132,11 +132,13 @@ def integer(minimum=None, maximum=None):
 
 
 def report_tuning(args, tuning):
-    """Print the priors the data chose, and put them in ``args`` (for titles, settings)."""
+    """Print the priors the data chose, and put them in ``args`` (for titles, settings);
+    what was asked for (``"auto"``, a range) goes to ``args.searched``."""
     import sys
 
     if tuning is None:
         return
+    args.searched = {"pm_snr_db": args.pm_snr_db, "ep_snr_db": args.ep_snr_db}
     args.pm_snr_db, args.ep_snr_db = tuning.pm_snr_db, tuning.ep_snr_db
     args.tuned = True
     print(

@@ -161,6 +161,7 @@ def _settings(args, route, extra):
         "noise_std": args.noise_std,
         "baseline": args.baseline,
         "nave": getattr(args, "nave", None),
+        "priors_searched": getattr(args, "searched", None),
         **extra,
         "machine": machine(),
     }
@@ -180,10 +181,15 @@ def _read_cov(path):
 
 
 def _about_noise_cov(args, err):
-    """An error about the noise, named by its flag (and file)."""
+    """An error about the noise or the channel types, named by its flag (and file)."""
     text = str(err)
     if args.noise_cov is not None and text.startswith("noise_cov"):
         return InputError(f"argument --noise-cov: {args.noise_cov}: {text}")
+    if text.startswith(("meg=", "eeg=")):  # a type asked for and absent
+        flag, rest = text[:3], text.split(" ", 1)[1]
+        return InputError(
+            f"argument --{flag}: {rest.replace(f'leave {flag}=None', f'drop --{flag}')}"
+        )
     if args.noise_std is not None and text.startswith("noise_std must be a dict"):
         return InputError(
             "argument --noise-std: one standard deviation cannot whiten channels of several "
