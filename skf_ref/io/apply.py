@@ -165,7 +165,11 @@ def apply_skf(
         )
         operator.check_pick_ori(pick_ori)
         data = operator.select(evoked.info, evoked.data, "evoked")
-        logger.info("    whitened with the noise covariance / nave, nave = %g", evoked.nave)
+        logger.info(
+            "SKF: nave = %g, the evoked whitened with the noise covariance / %g",
+            evoked.nave,
+            evoked.nave,
+        )
         rec = operator.reconstruct(
             data, nave=evoked.nave, exponent=exponent, smoother=smoother, method=method
         )
