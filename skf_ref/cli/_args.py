@@ -1,7 +1,11 @@
 """Argument parsing for ``skf-ref``: one-line errors naming the flag, defaults in the help."""
 
+from __future__ import annotations
+
 import argparse
 import re
+from collections.abc import Callable
+from typing import Any, NoReturn
 
 from .._utils.checks import MAX_DB, InputError, check_int, check_real
 
@@ -41,12 +45,12 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
 class Parser(argparse.ArgumentParser):
     """An argument parser whose errors are :class:`~skf_ref.InputError` (one line, exit 2)."""
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs.setdefault("formatter_class", _Formatter)
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = _NUMBER
 
-    def error(self, message):
+    def error(self, message: str) -> NoReturn:
         raise InputError(message)
 
 
@@ -71,7 +75,7 @@ def _typed(check):
     return parse
 
 
-def db(maximum=MAX_DB, auto=False):
+def db(maximum: float = MAX_DB, auto: bool = False) -> Callable[[str], Any]:
     """A level in dB: finite, within +-``maximum`` (10**(dB/10) far from overflow).
 
     With ``auto``, priors the data choose are accepted too: the word "auto" (the default
@@ -106,19 +110,19 @@ def db(maximum=MAX_DB, auto=False):
     return _typed(level)
 
 
-def nonnegative(maximum=None):
+def nonnegative(maximum: float | None = None) -> Callable[[str], float]:
     """A finite number >= 0 (and <= ``maximum``)."""
     return _typed(
         lambda text: check_real("value", _number(text), nonnegative=True, maximum=maximum)
     )
 
 
-def positive():
+def positive() -> Callable[[str], float]:
     """A finite number > 0."""
     return _typed(lambda text: check_real("value", _number(text), positive=True))
 
 
-def integer(minimum=None, maximum=None):
+def integer(minimum: int | None = None, maximum: int | None = None) -> Callable[[str], int]:
     """An integer in [minimum, maximum]."""
 
     def parse(text):
@@ -131,7 +135,7 @@ def integer(minimum=None, maximum=None):
     return _typed(parse)
 
 
-def report_tuning(args, tuning):
+def report_tuning(args: argparse.Namespace, tuning: Any) -> None:
     """Print the priors the data chose, and put them in ``args`` (for titles, settings);
     what was asked for (``"auto"``, a range) goes to ``args.searched``."""
     import sys
@@ -148,7 +152,7 @@ def report_tuning(args, tuning):
     )
 
 
-def add_skf_options(parser, *, exponent, smoother, smoother_help):
+def add_skf_options(parser: Any, *, exponent: Any, smoother: Any, smoother_help: str) -> None:
     """The SKF's options, shared by the commands that run one: priors, exponent, smoother."""
     chosen = "; or chosen by the data: auto (searched in -20..40 dB) or LOW,HIGH (e.g. -40,20)"
     parser.add_argument(

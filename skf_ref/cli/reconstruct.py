@@ -4,6 +4,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 from .._utils.checks import InputError
 from ..method.settings import RECOMMENDED_SETTING
@@ -40,7 +41,7 @@ def _output(text):
     return path
 
 
-def add_parser(subparsers):
+def add_parser(subparsers: Any) -> None:
     """Add ``reconstruct`` to the ``skf-ref`` subcommands."""
     parser = subparsers.add_parser(
         "reconstruct",

@@ -220,7 +220,7 @@ def apply_skf_epochs(
     operator.check_pick_ori(pick_ori)
     if not isinstance(return_generator, bool):
         raise InputTypeError(f"return_generator must be a bool, got {describe(return_generator)}")
-    settings = dict(exponent=exponent, smoother=smoother, method=method, nave=nave)
+    settings: dict[str, Any] = dict(exponent=exponent, smoother=smoother, method=method, nave=nave)
     tmin, tstep = float(epochs.times[0]), 1.0 / epochs.info["sfreq"]
     with verbosity(verbose):
         check = operator.check_info(epochs.info, "epochs")

@@ -7,7 +7,8 @@
   (``verbose=``). Channels are matched by name *and type*: a channel the forward models as
   EEG but the data call ``csd``, ``ecog``, ``misc`` ... is refused by name, since the forward
   cannot model it (:func:`check_channel_types`).
-- :func:`check_reference`: data and lead field need the same reference (docs/model.md §1).
+- :func:`has_average_reference_projector`, :func:`check_average_referenced`: data and lead
+  field need the same reference (docs/model.md §1).
   EEG data with an average-reference projector over every EEG channel in use, or average
   referenced already to their precision (MNE's default ``set_eeg_reference("average",
   projection=False)``, float32 files included), are given the average reference with the
@@ -32,8 +33,8 @@ __all__ = [
     "MODELLED_TYPES",
     "channel_kind",
     "channel_types",
+    "check_average_referenced",
     "check_channel_types",
-    "check_reference",
     "has_average_reference_projector",
     "pick_channels",
 ]
@@ -127,15 +128,16 @@ def channel_types(meg: bool | str | None, eeg: bool | None) -> str:
         raise InputTypeError(f"eeg must be None, True or False, got {describe(eeg)}")
     if meg is False and eeg is False:
         raise InputError("meg=False and eeg=False pick no channel: ask for MEG, EEG or both")
-    words = {None: ["MEG"], False: [], True: ["MEG"], "mag": ["magnetometer"]}
-    words = words.get(meg, ["gradiometer"]) + ["EEG"] * (eeg is not False)
+    meg_words = [] if meg is False else ["MEG"]
+    if isinstance(meg, str):
+        meg_words = ["magnetometer" if meg == "mag" else "gradiometer"]
     joined = " or " if meg is None or eeg is None else " and "
-    return joined.join(words)
+    return joined.join(meg_words + ["EEG"] * (eeg is not False))
 
 
 def _types_asked(meg: bool | str | None, eeg: bool | None) -> list[str]:
     """The MNE channel types ``meg`` and ``eeg`` allow."""
-    types = {None: ["mag", "grad"], True: ["mag", "grad"], False: []}.get(meg, [meg])
+    types = [meg] if isinstance(meg, str) else [] if meg is False else ["mag", "grad"]
     return types + ["eeg"] * (eeg is not False)
 
 
@@ -228,14 +230,14 @@ def pick_channels(
         ),
     }
     dropped: dict[str, list[str]] = {reason: [] for reason in reasons}
-    used = []
+    used: list[str] = []
     for channel in candidates:
         reason = next((r for r, test in reasons.items() if test(channel)), None)
         (dropped[reason] if reason else used).append(channel)
     dropped = {reason: names for reason, names in dropped.items() if names}
     if not used:
-        present = {kinds[c] for c in candidates}
-        words = _in_words(present) if present else words
+        types_present = {kinds[c] for c in candidates}
+        words = _in_words(types_present) if types_present else words
         _nothing_common(info, kinds, candidates, in_forward, in_covariance, words)
     _check_types_used({kinds[c] for c in used}, meg, eeg)
     eeg_used = [c for c in used if kinds[c] == "eeg"]
@@ -285,23 +287,6 @@ def _check_types_used(types: set[str], meg: bool | str | None, eeg: bool | None)
                 f"are {', '.join(sorted(types))}); leave {flag}=None to take the types they "
                 "share"
             )
-
-
-def check_reference(info: Any, data: np.ndarray, name: str, eeg_names: list[str]) -> None:
-    """Refuse EEG data that carry neither the average reference nor its projector.
-
-    Parameters
-    ----------
-    info : mne.Info
-    data : ndarray, shape (len(info.ch_names), n_times)
-    name : str
-        What the data are, for the message.
-    eeg_names : list of str
-        The EEG channels in use: an average-reference projector must cover them all.
-    """
-    if has_average_reference_projector(info, eeg_names, name):
-        return
-    check_average_referenced(info, data, name)
 
 
 def check_average_referenced(info: Any, data: np.ndarray, name: str) -> None:

@@ -105,7 +105,7 @@ def ad_hoc_covariance(noise_std: Any, info: Any) -> Any:
     return mne.make_ad_hoc_cov(info, std=std, verbose=False)
 
 
-def _block_matrix(covariance, names):
+def _block_matrix(covariance: Any, names: list[str]) -> np.ndarray:
     """The covariance's (n, n) entries for ``names``, diagonal covariances made square."""
     index = [covariance["names"].index(name) for name in names]
     data = np.asarray(covariance["data"])
@@ -114,7 +114,7 @@ def _block_matrix(covariance, names):
     return data[np.ix_(index, index)]
 
 
-def check_noise_covariance(covariance, info, names):
+def check_noise_covariance(covariance: Any, info: Any, names: list[str]) -> None:
     """Refuse a noise covariance that is none, naming ``noise_cov``.
 
     Finite, in range, symmetric; positive semi-definite and nonzero per channel type once

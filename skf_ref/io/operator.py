@@ -129,12 +129,12 @@ class InfoCheck:
     ----------
     index : ndarray of int, shape (len(ch_names),)
         The operator's channels among the info's.
-    check_reference : bool
+    must_be_referenced : bool
         Whether each data set must be average referenced (EEG without a projector).
     """
 
     index: NDArray[np.intp]
-    check_reference: bool
+    must_be_referenced: bool
 
 
 class SKFOperator:
@@ -333,7 +333,7 @@ class SKFOperator:
                 f"its info), got {data.shape}"
             )
         picked = check_array(f"{name}.data", data[check.index], (len(check.index), "n_times"))
-        if check.check_reference:
+        if check.must_be_referenced:
             check_average_referenced(info, data, name)
         return picked
 
@@ -382,7 +382,7 @@ class SKFOperator:
         # raw weights w_t (§2.2 eq. (7)) and the same z (eq. (6)), likelihood and "auto"
         # choice. So the whitened data alone are scaled (MNE's prepare_inverse_operator
         # scales noise and source covariance alike, to the same effect).
-        whitened = self.whitener @ data
+        whitened = self.whitener @ np.asarray(data)  # checked above: floats
         if nave != 1:
             whitened *= np.sqrt(nave)
         if not np.all(np.isfinite(whitened)):
