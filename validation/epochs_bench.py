@@ -32,18 +32,21 @@ most 1.5. ``--profile`` adds where the SKF's time goes per epoch. Results go to
 """
 
 import argparse
-import os
 import sys
 import time
-from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
 
-from skf_ref._utils.atomic_files import atomic_path
-from skf_ref._utils.provenance import machine
 from validation.mne_sample import BEM, COV, RANK, RAW, TRANS
-from validation.operator_bench import measure, profile, summarize
+from validation.operator_bench import (
+    blas_limited,
+    profile,
+    report_table,
+    summarize,
+    timed_rounds,
+    write_results,
+)
 
 #: Grid spacing (mm) of the volume source space: about 3000 positions in the inner skull.
 SPACING_MM = 7.8
@@ -176,30 +179,13 @@ def stages(epochs, operator, repeats=3):
 
 def report(table, profiles=None, stage_times=None):
     """The markdown file: machine, BLAS, load, the table, the target and any profile."""
-    info = machine()
-    versions = ", ".join(f"{name} {version}" for name, version in info["versions"].items())
     first = table.iloc[0]
-    lines = [
-        f"Machine: {info['platform']}, {info['cpus']} CPUs, Python {info['python']}; {versions}.",
-        f"BLAS (threadpoolctl): {first.blas}; limit {first.blas_limit}. Load average (1, 5, "
-        f"15 min) before: {first.load_before}; after: {first.load_after}.",
+    what = (
         f"The sample subject's sensors: {first.n_channels} channels (MEG and EEG), "
         f"{first.n_positions} positions x 3 ({first.spacing_mm:g} mm volume grid), "
-        f"{first.n_epochs} epochs of {first.n_times} samples; {first.rounds} interleaved "
-        "rounds. Medians (IQR) over the rounds; the ratio is each round's time over MNE's "
-        "in the same round.",
-        "",
-        "| path | wall (s) | CPU (s) | ratio to MNE | target | operator made (s) |",
-        "|---|---:|---:|---:|---:|---:|",
-    ]
-    for row in table.itertuples():
-        target = "" if np.isnan(row.target) else f"<= {row.target:g}"
-        lines.append(
-            f"| {row.path} | {row.seconds_median:.3f} ({row.seconds_iqr:.3f}) "
-            f"| {row.cpu_seconds_median:.3f} ({row.cpu_seconds_iqr:.3f}) "
-            f"| {row.ratio_median:.2f} ({row.ratio_iqr:.2f}) | {target} "
-            f"| {row.made_seconds:.2f} |"
-        )
+        f"{first.n_epochs} epochs of {first.n_times} samples"
+    )
+    lines = report_table(table, what, digits=3)
     if stage_times:
         lines += [
             "",
@@ -234,18 +220,9 @@ def run(
     stage_times : dict
     """
     epochs, forward, noise_cov = make_inputs(folder, spacing_mm, n_epochs)
-    limit = nullcontext()
-    if blas_limit is not None:
-        from threadpoolctl import threadpool_limits
-
-        limit = threadpool_limits(limits=blas_limit, user_api="blas")
-    with limit:
+    with blas_limited(blas_limit):
         runners, made = make_runners(epochs, forward, noise_cov)
-        for call in runners.values():  # warm: first-call imports and allocations
-            call()
-        load_before = os.getloadavg()
-        rounds = measure(runners, repeats)
-        load_after = os.getloadavg()
+        rounds, load_before, load_after = timed_rounds(runners, repeats)
         operator = runners["skf"].operator
         size = dict(
             n_channels=len(operator.ch_names),
@@ -281,14 +258,8 @@ def main(argv=None):
         args.blas_threads,
         args.profile,
     )
-    args.out.mkdir(parents=True, exist_ok=True)
     stem = "epochs" if args.blas_threads is None else f"epochs-blas{args.blas_threads}"
-    with atomic_path(args.out / f"{stem}.csv") as tmp:
-        table.to_csv(tmp, index=False)
-    text = report(table, profiles, stage_times)
-    with atomic_path(args.out / f"{stem}.md") as tmp:
-        tmp.write_text(text)
-    print(text)
+    write_results(args.out, stem, table, report(table, profiles, stage_times))
     return 0
 
 
