@@ -66,8 +66,8 @@ def add_parser(subparsers: Any) -> None:
     noise.add_argument(
         "--baseline",
         action="store_true",
-        help="estimate the noise from the samples at t <= 0 (of the average: MNE route, the "
-        "covariance of one trial is that times nave)",
+        help="estimate the noise from the samples at t <= 0 (an evoked's own baseline: the "
+        "data are whitened with it, whatever their nave)",
     )
     model = parser.add_argument_group("the SKF")
     add_skf_options(
