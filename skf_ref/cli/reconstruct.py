@@ -206,8 +206,8 @@ _EPOCHS = ("-epo.fif", "_epo.fif", "-epo.fif.gz")
 def _mne_route(args):
     from ..io.apply import apply_skf
     from ..io.files import read_data, read_leadfield
+    from ..io.make_operator import make_skf_operator
     from ..io.noise_cov import baseline_covariance
-    from ..io.operator import make_skf_operator
 
     recording = read_data(args.evoked, condition=args.condition)
     if recording.evoked is None:

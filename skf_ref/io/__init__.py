@@ -1,7 +1,8 @@
 """MNE-Python objects and files in, source estimates and files out.
 
-- :mod:`.operator`: :func:`make_skf_operator`, the SKF prepared once for an info, a
+- :mod:`.make_operator`: :func:`make_skf_operator`, the SKF prepared once for an info, a
   forward and a noise covariance (channels, reference and whitening done as MNE does);
+  :mod:`.operator`: :class:`SKFOperator`, what it prepared, applied;
 - :mod:`.apply`: :func:`apply_skf` on an ``mne.Evoked`` (with an operator, or a forward and
   a noise covariance in one call) and :func:`apply_skf_epochs`; :mod:`.raw`:
   :func:`apply_skf_raw` along a continuous recording;
@@ -30,7 +31,7 @@ _HOMES = {
     "write_reconstruction": "files",
     "write_stc": "files",
     "SKFOperator": "operator",
-    "make_skf_operator": "operator",
+    "make_skf_operator": "make_operator",
     "read_skf_operator": "operator_file",
     "write_skf_operator": "operator_file",
     "read_skf_stream": "stream",

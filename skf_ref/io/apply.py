@@ -1,7 +1,7 @@
 """The SKF on MNE-Python objects, modelled on ``apply_inverse`` and its kin.
 
 An evoked, epochs or a raw recording in, MNE source estimates out, through a prepared
-:class:`~skf_ref.io.operator.SKFOperator` (:func:`~skf_ref.io.operator.make_skf_operator`:
+:class:`~skf_ref.io.operator.SKFOperator` (:func:`~skf_ref.io.make_operator.make_skf_operator`:
 channels, reference, whitening, SVD, priors; see that module):
 
 - :func:`apply_skf`: an ``mne.Evoked``, with an operator or, in one call, with a forward
@@ -18,8 +18,9 @@ from typing import Any
 from .._utils.checks import InputError, InputTypeError, check_choice, check_instance, describe
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
+from .make_operator import make_skf_operator
 from .noise_cov import baseline_covariance
-from .operator import SKFOperator, make_skf_operator
+from .operator import SKFOperator
 from .stc import PICK_ORIS
 
 __all__ = ["apply_skf", "apply_skf_epochs"]
@@ -83,7 +84,7 @@ def apply_skf(
     :func:`skf_ref.make_skf_operator`; ``apply_skf(evoked, forward, noise_cov)`` makes one
     from the evoked's info first (channels matched by name and type, the average reference
     given to data and lead field alike, whitening with the noise covariance reduced to its
-    rank: :mod:`skf_ref.io.operator`) and gives the same numbers. As MNE's
+    rank: :mod:`skf_ref.io.make_operator`) and gives the same numbers. As MNE's
     ``apply_inverse``, the evoked is whitened with the noise covariance divided by its
     ``nave``: the covariance is that of one trial, and an average of ``nave`` trials has
     ``nave`` times less noise. Priors come from PM-SNR and EP-SNR on the whitened lead
