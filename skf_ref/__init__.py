@@ -51,8 +51,11 @@ _HOMES = {
     "apply_skf": "io.apply",
     "apply_skf_epochs": "io.apply",
     "apply_skf_raw": "io.raw",
-    "make_skf_operator": "io.operator",
+    "make_skf_operator": "io.make_operator",
     "SKFOperator": "io.operator",
+    "write_skf_operator": "io.operator_file",
+    "read_skf_operator": "io.operator_file",
+    "read_skf_stream": "io.stream",
     "compare": "conformance.compare",
 }
 

@@ -123,6 +123,8 @@ def run(args):
 
 
 def _db(value):
+    if isinstance(value, tuple):  # a range searched
+        return f"searched in {value[0]:g}..{value[1]:g} dB"
     return value if value == "auto" else f"{value:g} dB"
 
 

@@ -28,6 +28,7 @@ from .stc import stc_layout
 __all__ = [
     "BLOCK_BYTES",
     "STORE_MARK",
+    "TIME_CHUNK_BYTES",
     "WRITE_BEHIND_BYTES",
     "check_new_store",
     "new_store",
@@ -42,6 +43,9 @@ BLOCK_BYTES = 64 * 2**20
 #: Blocks computed but not yet written to disk (:func:`to_zarr` writes on a thread of its
 #: own while the next blocks are computed): at most this many bytes.
 WRITE_BEHIND_BYTES = 128 * 2**20
+#: Bytes of one chunk of a source estimate's store (:func:`stc_to_zarr`): a shard per
+#: block of rows, cut in time, so that a span of time reads about this much per block.
+TIME_CHUNK_BYTES = 2**20
 #: The attribute that marks a store as written by this package: ``"writing"`` until every
 #: array is whole, then ``"complete"``. Only a store so marked is ever replaced.
 STORE_MARK = "skf_ref_store"
@@ -226,8 +230,10 @@ def stc_to_zarr(reconstruction, src, path, tmin, tstep, pick_ori=None, overwrite
     -------
     zarr.Group
         Open for reading: the array ``"data"`` (n_positions, n_times), or (n_positions,
-        3, n_times) for ``"vector"``; attributes ``vertices`` (one list per source space),
-        ``tmin``, ``tstep``, ``subject``, ``stc_class`` (MNE's class) and the settings.
+        3, n_times) for ``"vector"``, one shard per block of rows in chunks of about
+        :data:`TIME_CHUNK_BYTES` along time; attributes ``vertices`` (one list per source
+        space), ``tmin``, ``tstep``, ``subject``, ``stc_class`` (MNE's class) and the
+        settings. :func:`skf_ref.read_skf_stream` reads it back as a source estimate.
     """
     zarr = optional("zarr", "zarr", "stc_to_zarr")
     layout = stc_layout(reconstruction.n_sources, src, pick_ori)
@@ -255,9 +261,15 @@ def stc_to_zarr(reconstruction, src, path, tmin, tstep, pick_ori=None, overwrite
             else:
                 yield positions, block
 
+    # one shard (one file) per block of rows, cut in time into chunks of about
+    # TIME_CHUNK_BYTES: a span of time is read without reading the rest (read_skf_stream)
+    per_sample = step // k * int(np.prod(shape[1:-1]))  # values of one sample in a shard
+    times = max(1, min(T, TIME_CHUNK_BYTES // (8 * per_sample)))
+    chunks = (step // k, *shape[1:-1], times)
+    shards = (step // k, *shape[1:-1], -(-T // times) * times)
     with new_store(path, overwrite, attributes) as group:
         array = group.create_array(
-            "data", shape=shape, chunks=(step // k, *shape[1:]), dtype="f8", compressors=None
+            "data", shape=shape, chunks=chunks, shards=shards, dtype="f8", compressors=None
         )
         _write_behind(rows(reconstruction.blocks("z", rows=step)), array.__setitem__)
     return zarr.open_group(path, mode="r")

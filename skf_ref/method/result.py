@@ -370,7 +370,7 @@ class Reconstruction:
             f"{self.method}, exponent {self.exponent:g}, {smoother}>"
         )
 
-    def to_stc(self, src, tmin, tstep, subject=None, pick_ori=None, *, kind=None):
+    def to_stc(self, src, tmin, tstep, subject=None, pick_ori=None):
         """This reconstruction as an MNE source estimate (see :func:`skf_ref.io.stc.make_stc`).
 
         Parameters
@@ -384,8 +384,6 @@ class Reconstruction:
         pick_ori : {None, "vector"}
             ``None``: per-position amplitude (free orientation) or the signed ``z`` (fixed);
             ``"vector"``: free orientation's three components.
-        kind : {"amplitude", "vector", "z"}
-            The 0.2 name of ``pick_ori``; it warns and goes in 0.4.
 
         Returns
         -------
@@ -393,7 +391,7 @@ class Reconstruction:
         """
         from ..io.stc import make_stc
 
-        return make_stc(self, src, tmin, tstep, subject, pick_ori, kind=kind)
+        return make_stc(self, src, tmin, tstep, subject, pick_ori)
 
     def amplitude(self, n_components=1, *, filtered=False, components=None):
         """Per-position amplitude: the Euclidean norm of each position's components of z.

@@ -20,7 +20,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._utils.checks import InputError, check_choice, check_db, check_int, check_real, describe
+from .._utils.checks import (
+    MAX_DB,
+    InputError,
+    check_choice,
+    check_db,
+    check_int,
+    check_real,
+    describe,
+)
 from .._utils.log import caller_stacklevel
 from .discrepancy import choose_on_curve
 from .model import StateSpaceModel
@@ -340,10 +348,13 @@ def _warn_at_bound(at_bound, best, ranges, criterion):
         else:
             why = "the marginal likelihood is largest there or beyond"
         further = "below" if end == "lower" else "above"
+        wider = (max(low - 20, -MAX_DB), high) if end == "lower" else (low, min(high + 20, MAX_DB))
         warnings.warn(
             f"tune: {name} = {best[i]:.2f} dB lies on the {end} bound {bound:g} dB of its "
             f"search range ({low:g}, {high:g}): {why}; widen {name} {further} {bound:g} dB "
-            "to let the data choose",
+            f"to let the data choose: {name}=({wider[0]:g}, {wider[1]:g}) in Python (tune, "
+            f"apply_skf, make_skf_operator) or --{name.replace('_', '-')}="
+            f"{wider[0]:g},{wider[1]:g} on the command line",
             UserWarning,
             stacklevel=caller_stacklevel(),
         )
@@ -403,7 +414,9 @@ def choose_priors(
     noise_std : float, optional
     noise_cov : array_like, shape (n_channels, n_channels), optional
         Give exactly one.
-    pm_snr_db, ep_snr_db : float or "auto"
+    pm_snr_db, ep_snr_db : float or "auto" or (float, float)
+        A number fixes the SNR; ``"auto"`` or a range ``(low, high)`` is searched by
+        :func:`tune`.
     convention : {"gain", "toolbox"}
         "toolbox" needs ``noise_std``.
     criterion : {"likelihood", "discrepancy"}
@@ -413,10 +426,10 @@ def choose_priors(
     -------
     theta0, q : float
     tuning : TuneResult or None
-        None when both SNRs were given.
+        None when both SNRs were numbers.
     """
     check_choice("criterion", criterion, CRITERIA)
-    if "auto" in (pm_snr_db, ep_snr_db):
+    if any(isinstance(v, str) or np.ndim(v) > 0 for v in (pm_snr_db, ep_snr_db)):
         result = tune(
             L,
             Y,
