@@ -11,9 +11,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from skf_ref import priors_from_snr, reconstruct
-from skf_ref.method.model import StateSpaceModel
-from skf_ref.method.paths import dense
-from skf_ref.method.paths.spectral import SpectralModel
+from skf_ref.method import SpectralModel, StateSpaceModel
+from skf_ref.method._paths import dense
 
 # Both paths are exact algebra, so they differ by rounding only, and rounding grows with the
 # condition numbers kappa of S_t and P_{t|t-1}: the dense path solves with S and takes eigh
@@ -174,9 +173,9 @@ def test_outputs_are_computed_on_access_only():
     rec = reconstruct(
         rng.standard_normal((4, 30)), rng.standard_normal((4, 3)), noise_std=1.0, theta0=1.0, q=1.0
     )
-    assert all(callable(v) for v in rec._arrays.values())
+    assert not any(rec.computed(name) for name in ("z", "x", "weights"))
     assert rec.z.shape == (30, 3)
-    assert not callable(rec._arrays["z"]) and callable(rec._arrays["weights"])
+    assert rec.computed("z") and not rec.computed("weights")
     assert rec.z is rec.z  # computed once, then kept
 
 
@@ -186,7 +185,7 @@ def test_backward_in_chunks_equals_the_step_by_step_recursion(n_times, transitio
     # narrow arrays take CHUNK_STEPS steps per matrix product: the same linear map, each
     # number a combination of at most CHUNK_STEPS + 1 terms with coefficients <= 1 / a
     # (gains below 1 / a, as the filter's are), so rounding stays at a few eps
-    from skf_ref.method.paths.recursions import CHUNK_COLUMNS, backward
+    from skf_ref.method._paths.recursions import CHUNK_COLUMNS, backward
 
     rng = np.random.default_rng(n_times)
     gain = rng.uniform(0.05, 0.99, n_times - 1) / transition
@@ -206,7 +205,7 @@ def test_backward_in_chunks_equals_the_step_by_step_recursion(n_times, transitio
 )
 def test_thin_svd_in_blocks_against_numpy(monkeypatch, n_channels, n_sources, block_rows):
     # the first stage's blocks: one, many, a last one narrower than n_channels, wide ones
-    from skf_ref.method.paths import singular_basis as singular
+    from skf_ref.method._paths import singular_basis as singular
 
     monkeypatch.setattr(singular, "_SVD_BLOCK_BYTES", 8 * n_channels * block_rows)
     rng = np.random.default_rng(n_sources)
@@ -239,7 +238,7 @@ def test_thin_svd_in_blocks_against_numpy(monkeypatch, n_channels, n_sources, bl
 
 @pytest.mark.parametrize("exponent", [0.0, 0.5, 0.75, 1.0, 1.25, 2.0, 0.3, 4.5])
 def test_standardized_means_equal_the_z_of_standardize(exponent):
-    from skf_ref.method.standardization import standardize, standardized_means
+    from skf_ref.method._standardization import standardize, standardized_means
 
     rng = np.random.default_rng(3)
     w, whitened = rng.uniform(1e-3, 10.0, (5, 40)), rng.standard_normal((5, 40))
@@ -250,7 +249,7 @@ def test_standardized_means_equal_the_z_of_standardize(exponent):
 
 
 def test_time_major_tiles_cover_every_entry_once_in_wide_runs():
-    from skf_ref.method.paths.spectral_rows import TIME_MAJOR_COLUMNS, _tiles
+    from skf_ref.method._paths.spectral_rows import TIME_MAJOR_COLUMNS, _tiles
 
     n, T = 2 * TIME_MAJOR_COLUMNS + 5, 300
     for target, width in ((np.empty((T, n)).T, TIME_MAJOR_COLUMNS), (np.empty((n, T)), None)):
@@ -267,7 +266,7 @@ def test_time_major_tiles_cover_every_entry_once_in_wide_runs():
 
 @pytest.mark.parametrize("order", ["C", "F"])
 def test_amplitude_on_worker_threads_equals_the_norm(order):
-    from skf_ref.method.result import amplitude_from_components
+    from skf_ref.method import amplitude_from_components
 
     z = np.asarray(np.random.default_rng(3).standard_normal((3 * 700, 900)), order=order)
     expected = np.linalg.norm(z.reshape(700, 3, 900), axis=1)

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from skf_ref import priors_from_snr, reconstruct
-from skf_ref.method.reconstruct import METHODS
+from skf_ref.method._settings import METHODS
 
 __all__ = [
     "TOLERANCE",

@@ -4,7 +4,7 @@
   defines, or re-exports from a private module) and those it only re-exports (linked to
   where they are documented); ``conf.py`` hands it to the autosummary templates.
 - :func:`resolve_alias`: a cross-reference to a name by another of its import paths
-  (``skf_ref.method.reconstruct.reconstruct`` for ``skf_ref.reconstruct``) finds the page
+  (``skf_ref.method._reconstruct.reconstruct`` for ``skf_ref.reconstruct``) finds the page
   where that object is documented.
 - :func:`figure_scraper`: the gallery shows the figures the package returns. They are
   ``matplotlib.figure.Figure`` objects made without pyplot, which sphinx-gallery's own
@@ -136,7 +136,7 @@ def top_level_data(package=PACKAGE):
     """The package's exported constants: dotted name -> (repr of the value, its doc lines).
 
     autodoc looks for a constant's ``#:`` comment in the module it is documented from,
-    ``skf_ref`` itself, which only loads it from its home (``skf_ref.method.settings``);
+    ``skf_ref`` itself, which only loads it from its home (``skf_ref.method._settings``);
     the comment is read from the home here.
     """
     from sphinx.pycode import ModuleAnalyzer
@@ -190,7 +190,7 @@ def resolve_alias(app, env, node, contnode):
             head, _, last = head.rpartition(".")
             rest = f".{last}{rest}"
     # A short name in a docstring rendered away from its module (``skf_ref.tune``'s
-    # docstring names ``BOUND_TOL_DB`` of skf_ref.method.tuning): the one documented object
+    # docstring names ``BOUND_TOL_DB`` of skf_ref.method._tuning): the one documented object
     # of the package whose dotted name ends with it, if there is exactly one.
     if not target.startswith(f"{PACKAGE}."):
         types = domain.objtypes_for_role(node["reftype"]) or ()

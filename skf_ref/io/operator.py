@@ -19,8 +19,8 @@
    covariance is checked first: finite, in range, symmetric, positive semi-definite with a
    nonzero block per channel type after projection.
 4. **The SKF's model.** The thin SVD of the whitened lead field
-   (:class:`skf_ref.method.paths.singular_basis.SpectralBasis`) once, and for each number
-   of samples the covariance recursion (:class:`skf_ref.method.paths.spectral.SpectralModel`
+   (:class:`skf_ref.method.SpectralBasis`) once, and for each number
+   of samples the covariance recursion (:class:`skf_ref.method.SpectralModel`
    with that basis), kept for the next data set of that length. The priors come from
    PM-SNR and EP-SNR on the whitened lead field (docs/model.md §4): ``q`` depends on the
    number of samples, ``"auto"`` on the data (chosen again for each data set).
@@ -38,18 +38,15 @@ from .._utils.checks import (
     check_choice,
     check_db,
     check_leadfield,
-    check_real,
     describe,
 )
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
 from .._utils.precision import zero_tolerance
-from ..method.model import StateSpaceModel
-from ..method.paths.singular_basis import SpectralBasis
-from ..method.paths.spectral import SpectralModel
-from ..method.priors import priors_from_snr
-from ..method.reconstruct import METHODS, check_smoother, reconstruct
-from ..method.tuning import choose_priors
+from ..method import SpectralBasis, SpectralModel, StateSpaceModel, priors_from_snr, reconstruct
+from ..method._model import missing_steps
+from ..method._settings import check_gaps, check_settings
+from ..method._tuning import choose_priors
 from .channels import (
     channel_kind,
     channel_types,
@@ -210,7 +207,8 @@ class SKFOperator:
         Parameters
         ----------
         data : ndarray, shape (len(ch_names), n_times)
-            In the data's units, as :meth:`select` returns them; whitened here.
+            In the data's units, as :meth:`select` returns them; whitened here. A column of
+            NaN is a missing step (a bad segment; docs/model.md §2).
         exponent : float
         smoother : {None, "rts-standardized", "rts-state"}
         method : {"auto", "spectral", "dense", "filterpy"}
@@ -223,12 +221,13 @@ class SKFOperator:
         skf_ref.Reconstruction
             In whitened units; ``tuning`` says what ``"auto"`` chose.
         """
-        data = check_array("data", data, (len(self.ch_names), "n_times"))
-        exponent = check_real("exponent", exponent, nonnegative=True)
-        smoother = check_smoother(smoother)
-        check_choice("method", method, METHODS)
+        data = check_array("data", data, (len(self.ch_names), "n_times"), finite=False)
+        missing = missing_steps(data, "data")  # columns of NaN: bad segments
+        settings = check_settings(exponent, smoother, method)
+        check_gaps(settings.smoother, missing)
+        exponent, smoother, method = settings.exponent, settings.smoother, settings.method
         whitened = self.whitener @ data
-        if not np.all(np.isfinite(whitened)):
+        if not np.all(np.isfinite(whitened[:, ~missing])):
             raise InputError("the whitened data are not finite: noise_cov is out of range")
         n, T = self.n_sources, whitened.shape[1]
         if "auto" in (self.pm_snr_db, self.ep_snr_db):
@@ -243,9 +242,7 @@ class SKFOperator:
             tuning = None
             theta0, q = self._priors(T)
         if method in ("auto", "spectral"):  # the operator's SVD (and recursions) again
-            budget = memory.available_memory() / 2 if memory_limit is None else memory_limit
-            needed = memory.spectral_memory(n, self.rank, T)
-            memory.require(needed, f"the SKF on {T} samples of {n} sources", budget)
+            memory.check_reconstruction("spectral", smoother, n, self.rank, T, memory_limit)
             rec = self._model(T, theta0, q).apply(whitened, exponent, smoother, memory_limit)
         else:
             rec = reconstruct(

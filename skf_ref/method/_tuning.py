@@ -4,7 +4,7 @@ The Kalman filter gives the marginal likelihood of the data, ``log p(Y | theta0,
 of its innovations' log densities, and the filtered residual ``y_t - L x_{t|t}`` whose whitened
 energy the discrepancy principle matches to the noise's. In the singular basis of the whitened lead
 field both need only the rank-r recursions
-(:class:`skf_ref.method.paths.singular_basis.SpectralBasis`): one SVD, then a few hundred
+(:class:`skf_ref.method.SpectralBasis`): one SVD, then a few hundred
 microseconds per prior pair at the paper's scale, with no n-dimensional array at all, so a whole
 grid of priors costs little more than one reconstruction.
 
@@ -22,10 +22,10 @@ import numpy as np
 
 from .._utils.checks import InputError, check_choice, check_db, check_int, check_real, describe
 from .._utils.log import caller_stacklevel
-from .discrepancy import choose_on_curve
-from .model import StateSpaceModel
-from .paths.singular_basis import SpectralBasis, whitener
-from .priors import (
+from ._discrepancy import choose_on_curve
+from ._model import StateSpaceModel
+from ._paths.singular_basis import SpectralBasis, whitener
+from ._priors import (
     CONVENTIONS,
     evolution_variance,
     lead_field_amplitude,
@@ -144,7 +144,7 @@ def tune(
 
     with ``m = n_channels`` (the rows of the whitened data ``C^{-1} Y``) and ``T = n_times``,
     found by a bracketing root search in dB within the EP-SNR range, to 1e-10 dB
-    (:mod:`skf_ref.method.discrepancy`); where the residual does not cross ``m T`` inside the
+    (``skf_ref.method._discrepancy``); where the residual does not cross ``m T`` inside the
     range, the end where it comes nearest. The principle says nothing of the PM-SNR: a
     number fixes it; over a range, the PM-SNR is the one of largest marginal likelihood
     along the curve of those solutions (the ``grid`` PM-SNRs whose solution lies inside

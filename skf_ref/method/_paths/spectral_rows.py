@@ -8,48 +8,35 @@ or on a cluster (:meth:`SpectralRows.block`). The one exception is the paper's s
 ``"rts-standardized"``: its correction ``V delta`` needs ``zeta = V^T z_{t|t}`` summed over
 all rows, which one pass over the blocks computes first (r x T numbers; kept).
 
-In the steady state (:mod:`skf_ref.method.paths.recursions`, from step ``steady`` on) the
+In the steady state (``skf_ref.method._paths.recursions``, from step ``steady`` on) the
 weights are held: ``W_t^(alpha) = D``, one number a row, and every output is one product,
 ``z_t = (D V) u_t`` with ``u_t = p^{-1/2} xi_t``. There the smoothed ``h_t`` of the paper's
-smoother (module :mod:`skf_ref.method.paths.spectral`) stays in span ``D V``:
+smoother (module ``skf_ref.method._paths.spectral``) stays in span ``D V``:
 ``h_t = D V eta_t`` with ``eta`` the scalar recursion on ``u`` (rank r), so
 ``s_t = [D V, V] [eta_t; delta_t]``, one product, and ``zeta_t = (V^T D V) u_t``: the pass
 over the rows covers the steps before ``steady`` only.
 
 Everything is computed in tiles of about :data:`BLOCK_BYTES` (rows, and steps on long
-recordings) on worker threads (:func:`~.singular_basis.map_threads`), each on one BLAS
+recordings) on worker threads (``skf_ref._utils.threads.map_threads``), each on one BLAS
 thread. A block of rows (:meth:`SpectralRows.block`) is computed source-major, (n_rows,
 n_times) C-ordered, as it is written to disk, and handed out as its (n_times, n_rows)
 transpose; a whole output (:meth:`SpectralRows.array`) is time-major, (n_times, n_sources),
 so that the paper's smoother's scalar recursion runs along contiguous rows.
 """
 
+from collections.abc import Iterator, Sequence
+
 import numpy as np
+from numpy.typing import NDArray
 from scipy.linalg import blas
 
 from ..._utils import memory
-from ..outputs import ARRAYS
-from ..standardization import standardization_weights
-from .recursions import backward
-from .singular_basis import map_threads
+from ..._utils.threads import map_threads
+from .._standardization import standardization_weights
+from .recursions import Recursions, backward
 
-__all__ = [
-    "BLOCK_BYTES",
-    "CACHE_BYTES",
-    "MIN_BLOCK_COLUMNS",
-    "NAMES",
-    "PROJECTION_COLUMNS",
-    "PROJECTION_STEPS",
-    "SMOOTH_BYTES",
-    "SMOOTH_COLUMNS",
-    "SMOOTH_PART_COLUMNS",
-    "SpectralRows",
-    "Standardization",
-    "TIME_MAJOR_COLUMNS",
-]
+__all__ = ["SpectralRows", "Standardization"]
 
-#: The outputs a reconstruction holds.
-NAMES = ARRAYS  # the outputs it computes rows of
 #: One tile of an output, a work item of the worker threads: small enough to stay in
 #: cache between the steps that touch it and for both cores to share even small outputs.
 BLOCK_BYTES = 4 * 2**20
@@ -174,28 +161,42 @@ class Standardization:
 
 
 class SpectralRows:
-    """Rows of the outputs of one spectral reconstruction.
+    """Rows of the outputs of one spectral reconstruction: its
+    ``skf_ref.method._outputs.LazyOutputs``.
 
     Parameters
     ----------
-    model : SpectralModel
-        The data-free part (:class:`skf_ref.method.paths.spectral.SpectralModel`): ``V``,
-        its recursions and standardizations.
+    V : ndarray, shape (n_sources, r)
+        The right singular vectors of the whitened lead field.
+    a : float
+        ``A = a I``.
+    recursions : Recursions
+        The covariance recursion of the data's steps (``skf_ref.method._paths.recursions``).
+    standardization : Standardization
+        Its weights at the exponent asked for.
     xi : ndarray, shape (n_times, r)
         Filtered singular coordinates ``V^T x_{t|t}``.
-    exponent : float
     smoother : {None, "rts-standardized", "rts-state"}
     memory_limit : float, optional
         Bytes a whole output (:meth:`array`) may take; default half the memory available.
     """
 
-    def __init__(self, model, xi, exponent, smoother, memory_limit=None):
-        recursions = model.recursions
-        self.V, self.a, self.xi = model.V, model.a, xi
+    def __init__(
+        self,
+        V: NDArray[np.float64],
+        a: float,
+        recursions: Recursions,
+        standardization: Standardization,
+        xi: NDArray[np.float64],
+        smoother: str | None,
+        memory_limit: float | None = None,
+    ) -> None:
+        self.V, self.a, self.xi = V, a, xi
         self.n_sources, self.n_times = self.V.shape[0], len(xi)
         self.steady = recursions.steady
-        self.exponent, self.smoother, self.memory_limit = exponent, smoother, memory_limit
-        self.standardization = model.standardization(exponent)
+        self.exponent = standardization.exponent
+        self.smoother, self.memory_limit = smoother, memory_limit
+        self.standardization = standardization
         self.standardization.applications += 1
         self.recursions = recursions
         # P_{t|t-1}^{-1/2} x = V diag(p^{-1/2}) xi                      §2.2 (6)
@@ -206,6 +207,68 @@ class SpectralRows:
             self.u_smoothed = self._whitened(self.xi_smoothed)
         self._delta = None
 
+    # --- the LazyOutputs protocol -----------------------------------------------------------
+
+    def array(self, name: str) -> NDArray[np.float64]:
+        """Output ``name`` whole, (n_sources, n_times): the transpose of a time-major array
+        (:meth:`time_major`)."""
+        return self.time_major(name).T
+
+    def blocks(
+        self, name: str, rows: int | None = None
+    ) -> Iterator[tuple[slice, NDArray[np.float64]]]:
+        """Output ``name`` block of ``rows`` rows by block (default about
+        :data:`BLOCK_BYTES` each), (n_rows, n_times) C-ordered.
+
+        The paper's smoother's backward pass costs a vector operation a step per block
+        computed, so on long recordings narrow blocks are computed several at a time (up to
+        :data:`SMOOTH_COLUMNS` rows or :data:`SMOOTH_BYTES`): one group in memory at once.
+        """
+        n, T = self.n_sources, self.n_times
+        step = max(1, BLOCK_BYTES // (8 * T)) if rows is None else rows
+        width = min(SMOOTH_COLUMNS, SMOOTH_BYTES // (8 * T))
+        smoothed = name == "z" and self.smoother == "rts-standardized"
+        group = step * max(1, width // step) if smoothed else step
+        for first in range(0, n, group):
+            stop = min(first + group, n)
+            many = self.block(name, slice(first, stop))
+            for start in range(first, stop, step):
+                where = slice(start, min(start + step, stop))
+                yield where, many[where.start - first : where.stop - first]
+            del many  # before the next group is computed
+
+    def share(self, name: str, rows: slice) -> NDArray[np.float64] | None:
+        """These rows' share of what every block of ``name`` needs: of ``zeta = V^T
+        z_{t|t}`` for the paper's smoothed ``z`` (:meth:`projection`), else None."""
+        return self.projection(rows) if self._needs_correction(name) else None
+
+    def combine(
+        self, name: str, shares: Sequence[NDArray[np.float64] | None]
+    ) -> NDArray[np.float64] | None:
+        """The correction of the paper's smoother from every block's share (else None)."""
+        if not self._needs_correction(name):
+            return None
+        return self.correction_from(np.sum(shares, axis=0))
+
+    def block(
+        self, name: str, rows: slice, shared: NDArray[np.float64] | None = None
+    ) -> NDArray[np.float64]:
+        """Rows ``rows`` of output ``name``, (n_rows, n_times) C-ordered; ``shared`` is
+        :meth:`combine`'s result (computed here, by a pass over every row, when None)."""
+        return self._fill_block(name, rows, delta=shared).T
+
+    def min_raw_weight(self) -> float:
+        """The smallest raw weight over every source and observed step (only to explain a
+        failure)."""
+        steps = slice(0, min(self.steady + 1, self.n_times))
+        return min(
+            float(np.nanmin(self.standardization.raw(rows, steps)))
+            for rows in _slices(0, self.n_sources, max(1, BLOCK_BYTES // (8 * steps.stop)))
+        )
+
+    def _needs_correction(self, name: str) -> bool:
+        return name == "z" and self.smoother == "rts-standardized"
+
     def _whitened(self, xi):
         root = np.sqrt(self.recursions.p_pred)
         own = len(root) - self.recursions.held
@@ -213,10 +276,10 @@ class SpectralRows:
 
     # --- one block of rows ------------------------------------------------------------------
 
-    def block(self, name, columns, out=None, delta=None):
+    def _fill_block(self, name, columns, out=None, delta=None):
         """Rows ``columns`` of output ``name``, as a (n_times, n_rows) array.
 
-        Computed in tiles on worker threads (:func:`~.singular_basis.map_threads`).
+        Computed in tiles on worker threads (``skf_ref._utils.threads.map_threads``).
 
         Parameters
         ----------
@@ -425,7 +488,7 @@ class SpectralRows:
 
     # --- a whole output in memory -------------------------------------------------------
 
-    def array(self, name):
+    def time_major(self, name: str) -> NDArray[np.float64]:
         """Output ``name`` whole, (n_times, n_sources), filled tile by tile in threads.
 
         ``"z"`` of ``"rts-standardized"`` is filled with ``z_{t|t}`` before the steady state
@@ -440,13 +503,13 @@ class SpectralRows:
         n, T = self.n_sources, self.n_times
         memory.require(
             8 * n * T,
-            f"a ({n}, {T}) output array in memory (stream it instead: Reconstruction.to_zarr, "
-            ".blocks or .to_dask)",
+            f"a ({n}, {T}) output array in memory (stream it instead: skf_ref.io.to_zarr, "
+            "Reconstruction.blocks or skf_ref.io.to_dask)",
             budget=self.memory_limit,
         )
         result = np.empty((T, n))
         if not (name == "z" and self.smoother == "rts-standardized" and self._delta is None):
-            return self.block(name, slice(0, n), out=result)
+            return self._fill_block(name, slice(0, n), out=result)
         self.standardization.prepare()
         S = self.steady
         eta = self._steady_means() if S < T else None
@@ -469,14 +532,6 @@ class SpectralRows:
         eta = None  # copied into the correction
         self._correct(0, n, result.T, self._delta)
         return result
-
-    def min_raw_weight(self):
-        """The smallest raw weight over every source and step (only to explain a failure)."""
-        steps = slice(0, min(self.steady + 1, self.n_times))
-        return min(
-            np.min(self.standardization.raw(rows, steps))
-            for rows in _slices(0, self.n_sources, max(1, BLOCK_BYTES // (8 * steps.stop)))
-        )
 
 
 def _split(times, steady):

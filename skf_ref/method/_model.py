@@ -6,8 +6,8 @@
     y_t = L x_t + r_t,       r_t ~ N(0, R)
     x_0 ~ N(0, P_0)
 
-Every path (:mod:`skf_ref.method.paths.dense`, :mod:`skf_ref.method.paths.filterpy_skf`,
-:mod:`skf_ref.method.paths.spectral`) takes a :class:`StateSpaceModel`. ``transition``, ``q`` and
+Every path (``skf_ref.method._paths.dense``, ``skf_ref.method._paths.filterpy_skf``,
+``skf_ref.method._paths.spectral``) takes a :class:`StateSpaceModel`. ``transition``, ``q`` and
 ``theta0`` keep the form the user gave: a scalar ``c`` means ``c I`` (the paper's isotropic model),
 a matrix means itself.
 """
@@ -16,6 +16,7 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._utils.checks import (
     InputError,
@@ -28,9 +29,57 @@ from .._utils.checks import (
 )
 from .._utils.precision import average_referenced
 
-__all__ = ["StateSpaceModel"]
+__all__ = ["StateSpaceModel", "missing_steps"]
 
 _SMALLEST, _LARGEST = np.finfo(float).tiny, np.finfo(float).max
+
+
+def missing_steps(Y: ArrayLike, name: str = "Y") -> NDArray[np.bool_]:
+    """The missing steps of data ``Y``: its columns of NaN (docs/model.md §2).
+
+    Every other column must be finite: a column NaN in some channels only, or any Inf, is
+    refused, naming the column. At least one step must be observed.
+
+    Parameters
+    ----------
+    Y : array_like, shape (n_channels, n_times)
+    name : str
+        What ``Y`` is, for the messages.
+
+    Returns
+    -------
+    ndarray of bool, shape (n_times,)
+
+    Examples
+    --------
+    >>> missing_steps([[1.0, np.nan, 2.0], [3.0, np.nan, 4.0]]).tolist()
+    [False, True, False]
+    >>> missing_steps([[1.0, np.nan], [3.0, 4.0]])
+    Traceback (most recent call last):
+    ...
+    skf_ref._utils.checks.InputError: Y[:, 1] is NaN in 1 of its 2 channels: a step is \
+either measured on every channel or missing (a column of NaN); ...
+    """
+    Y = np.asarray(Y, dtype=float)
+    if np.isinf(Y).any():
+        column = int(np.flatnonzero(np.isinf(Y).any(axis=0))[0])
+        raise InputError(f"{name} contains Inf (first in column {column})")
+    nan = np.isnan(Y)
+    if not nan.any():
+        return np.zeros(Y.shape[1], bool)
+    missing = nan.all(axis=0)
+    partial = np.flatnonzero(nan.any(axis=0) & ~missing)
+    if partial.size:
+        t = int(partial[0])
+        raise InputError(
+            f"{name}[:, {t}] is NaN in {np.count_nonzero(nan[:, t])} of its {len(Y)} channels: "
+            "a step is either measured on every channel or missing (a column of NaN); "
+            f"{partial.size} column(s) are partly NaN: drop the channels, or make the step "
+            "missing"
+        )
+    if missing.all():
+        raise InputError(f"every column of {name} is NaN: no step is observed")
+    return missing
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,25 +167,42 @@ class StateSpaceModel:
         """int : Columns of the lead field (state components)."""
         return self.L.shape[1]
 
-    def check_data(self, Y):
-        """``Y`` as a float array of shape (n_channels, n_times), finite and in range.
+    def check_data(self, Y: ArrayLike) -> NDArray[np.float64]:
+        """``Y`` as a float array of shape (n_channels, n_times), finite and in range, but
+        for its missing steps.
 
-        Its squared size in noise standard deviations (the log-likelihood's quadratic form)
-        must fit in double precision.
+        A column of NaN is a missing step (docs/model.md §2: predicted, not updated); a
+        column NaN in some channels only, or any Inf, is refused. The squared size of the
+        data in noise standard deviations (the log-likelihood's quadratic form) must fit in
+        double precision. A ``Y`` whose rows match the lead field's columns rather than its
+        rows is reported as a transposed ``L``.
+
+        Parameters
+        ----------
+        Y : array_like, shape (n_channels, n_times)
 
         Returns
         -------
         ndarray, shape (n_channels, n_times)
         """
-        Y = check_array("Y", Y, (self.n_channels, "n_times"))
+        Y = np.asarray(Y) if isinstance(Y, list) else Y
+        if np.ndim(Y) == 2 and len(Y) != self.n_channels and len(Y) == self.n_sources:
+            raise InputError(
+                f"L must have shape (n_channels, n_sources) with Y's {len(Y)} channels as its "
+                f"rows, got L of shape {self.L.shape}: L looks transposed (give L.T); Y has "
+                f"shape {np.shape(Y)}"
+            )
+        Y = check_array("Y", Y, (self.n_channels, "n_times"), finite=False)
         if Y.shape[1] < 1:
             raise InputError(f"Y must have at least one time step, got shape {Y.shape}")
-        self._check_reference(Y)
+        missing = missing_steps(Y)
+        observed = Y[:, ~missing] if missing.any() else Y
+        self._check_reference(observed)
         noise_std = np.sqrt(np.linalg.eigvalsh(self.R)[0])
-        size = np.max(np.abs(Y)) / noise_std
-        if size > 0 and not np.log(size) * 2 + np.log(Y.size) < np.log(_LARGEST):
+        size = np.max(np.abs(observed)) / noise_std
+        if size > 0 and not np.log(size) * 2 + np.log(observed.size) < np.log(_LARGEST):
             raise InputError(
-                f"Y is out of range for the noise: max|Y| = {np.max(np.abs(Y)):.3g} is "
+                f"Y is out of range for the noise: max|Y| = {np.max(np.abs(observed)):.3g} is "
                 f"{size:.3g} noise standard deviations ({noise_std:.3g}), and the likelihood's "
                 "squared residuals overflow; give Y and the noise in the same units"
             )
@@ -183,7 +249,7 @@ class StateSpaceModel:
     def isotropic_problem(self):
         """Why the model is not ``A = a I, Q = q I, P_0 = theta0 I``, or None if it is.
 
-        The spectral path (:mod:`skf_ref.method.paths.spectral`) needs exactly that model.
+        The spectral path (``skf_ref.method._paths.spectral``) needs exactly that model.
 
         Returns
         -------

@@ -1,7 +1,7 @@
 r"""The spectral path's rank-r recursions, and the steady state they settle into.
 
 In the singular basis of the whitened lead field, ``L~ = U diag(s) V^T``
-(:mod:`skf_ref.method.paths.spectral` derives it), the covariances of the paper's model
+(``skf_ref.method._paths.spectral`` derives it), the covariances of the paper's model
 (``A = a I``, ``Q = q I``, ``P_0 = theta0 I``) are ``r = rank(L)`` numbers a step,
 ``p_{t|t-1}``, and one scalar on the complement of span V, carried as ``u_t = q / c_t``.
 This module holds those recursions, the filtered means and the smoother's backward passes.
@@ -27,23 +27,25 @@ scalar gain ``beta_t``) falls like ``1/t`` when ``a = 1`` and is never held.
 
 The tests compare held and full recursions on problems long enough to settle: the outputs
 agree to 1e-12 relative (tests/test_steady.py).
+
+Missing steps
+-------------
+At a step without a measurement (docs/model.md §2) the covariance is predicted and not
+updated, ``p_{t|t} = p_{t|t-1}``, and the means follow ``xi_t = a xi_{t-1}``; such a step
+adds nothing to the log-likelihood and has no weights (``omega`` is NaN there). A gap moves
+``p`` away from ``p_inf``, and the observed steps after it converge again, monotonically: the
+steady state is looked for only after the last missing step, and every step before it is
+stored, ``8 r`` bytes a step per (n_times, r) array (``p_pred``, and ``p_filt``, ``omega``
+and the smoother's gains when used). A recording without gaps is held as before.
 """
 
 import functools
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy import signal
 
-__all__ = [
-    "CHUNK_COLUMNS",
-    "CHUNK_STEPS",
-    "LFILTER_STEPS",
-    "STEADY_RTOL",
-    "Recursions",
-    "backward",
-    "fixed_point",
-    "recurrence",
-]
+__all__ = ["Recursions", "backward", "fixed_point", "recurrence"]
 
 #: Relative change of ``p_{t|t-1}`` over the rest of the recording below which
 #: :class:`Recursions` holds it (module docstring): 45 units of double rounding, 10 times
@@ -101,11 +103,15 @@ class Recursions:
     n_times : int
     rtol : float, optional
         Default :data:`STEADY_RTOL`; a negative value never holds (the full recursion).
+    missing : ndarray of bool, shape (n_times,), optional
+        The steps without a measurement (docs/model.md §2): predicted, not updated.
 
     Attributes
     ----------
     steady : int
-        First step of the steady state (``n_times`` if the recording ends before it).
+        First step of the steady state (``n_times`` if the recording ends before it). It
+        comes after the last missing step: every step before it is stored.
+    missing : ndarray of bool, shape (n_times,)
     p_pred : ndarray, shape (n_stored, ..., r)
         ``p_{t|t-1}`` for ``t < n_stored = min(steady + 1, n_times)``; the last row holds
         for every later step.
@@ -119,11 +125,24 @@ class Recursions:
     (True, True)
     """
 
-    def __init__(self, s, a, q, theta0, n_times, rtol=None):
+    def __init__(
+        self,
+        s: NDArray[np.float64],
+        a: float,
+        q: ArrayLike,
+        theta0: ArrayLike,
+        n_times: int,
+        rtol: float | None = None,
+        missing: NDArray[np.bool_] | None = None,
+    ) -> None:
         rtol = STEADY_RTOL if rtol is None else rtol
         q, theta0 = np.asarray(q, dtype=float), np.asarray(theta0, dtype=float)
         batch = np.broadcast_shapes(q.shape, theta0.shape)
         self.s, self.a, self.n_times = s, a, n_times
+        self.missing = np.zeros(n_times, bool) if missing is None else missing
+        # the steady state can only hold after the last missing step (a gap restarts the
+        # transient): the steps before it are kept one by one
+        after_gaps = int(np.flatnonzero(self.missing)[-1]) + 1 if self.missing.any() else 0
         target = fixed_point(s, a, np.broadcast_to(q, batch))
         p_pred = np.empty((n_times, *batch, len(s)))
         q_ = q[..., None]  # broadcast against s
@@ -135,10 +154,12 @@ class Recursions:
                 # P_{t|t-1} = a^2 P_{t-1|t-1} + q I                        §2.2 (4)
                 p_pred[t] = a**2 * p + q_
                 # P_{t|t} = P_{t|t-1} - K S K^T: on span V p / (s^2 p + 1)  §2.2 (5)
-                p = p_pred[t] / (s**2 * p_pred[t] + 1)
-            settled = _settled(p_pred[start:stop], target, rtol)
+                # (at a missing step P_{t|t} = P_{t|t-1}: no update)   docs/model.md §2
+                p = p_pred[t] if self.missing[t] else p_pred[t] / (s**2 * p_pred[t] + 1)
+            first = max(start, after_gaps)
+            settled = _settled(p_pred[first:stop], target, rtol) if first < stop else None
             if settled is not None:
-                self.steady = start + settled
+                self.steady = first + settled
                 break
         self.p_pred = p_pred[: min(self.steady + 1, n_times)].copy()
         self.u = _complement(a, q, theta0, batch, n_times)
@@ -155,20 +176,36 @@ class Recursions:
         return rows[index]
 
     @property
-    def p_filt(self):
-        """ndarray, shape (n_stored, ..., r) : ``p_{t|t}``, rows as ``p_pred``."""
-        return self.p_pred / (self.s**2 * self.p_pred + 1)
+    def n_observed(self) -> int:
+        """int : The steps with a measurement."""
+        return self.n_times - int(np.count_nonzero(self.missing))
+
+    def _stored_missing(self) -> NDArray[np.bool_]:
+        """The missing steps among the stored rows, shaped to broadcast against them."""
+        gaps = self.missing[: len(self.p_pred)]
+        return gaps.reshape((len(gaps),) + (1,) * (self.p_pred.ndim - 1))
 
     @property
-    def omega(self):
-        """ndarray, shape (n_stored, ..., r) : ``s^2 p / (s^2 p + 1)``, the raw weights'
-        coefficients (``w = (V o V) omega``), rows as ``p_pred``."""
-        return self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)
+    def p_filt(self) -> NDArray[np.float64]:
+        """ndarray, shape (n_stored, ..., r) : ``p_{t|t}``, rows as ``p_pred``
+        (``p_{t|t-1}`` at a missing step)."""
+        updated = self.p_pred / (self.s**2 * self.p_pred + 1)
+        return np.where(self._stored_missing(), self.p_pred, updated)
 
-    def log_det_innovations(self):
-        """``sum_t log det S~_t`` (...): ``s^2 p_{t|t-1} + 1`` on span U, 1 off it."""
+    @property
+    def omega(self) -> NDArray[np.float64]:
+        """ndarray, shape (n_stored, ..., r) : ``s^2 p / (s^2 p + 1)``, the raw weights'
+        coefficients (``w = (V o V) omega``), rows as ``p_pred``; NaN at a missing step,
+        which has no weights."""
+        omega = self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)
+        return np.where(self._stored_missing(), np.nan, omega)
+
+    def log_det_innovations(self) -> NDArray[np.float64]:
+        """``sum_t log det S~_t`` (...) over the observed steps: ``s^2 p_{t|t-1} + 1`` on
+        span U, 1 off it."""
         terms = np.sum(np.log(self.s**2 * self.p_pred + 1), axis=-1)
-        return np.sum(terms, axis=0) + (self.n_times - len(terms)) * terms[-1]
+        observed = np.where(self._stored_missing()[..., 0], 0.0, terms)
+        return np.sum(observed, axis=0) + (self.n_times - len(terms)) * terms[-1]
 
     @functools.cached_property
     def gains(self):
@@ -207,7 +244,7 @@ class Recursions:
         return self._backward_gamma(out)
 
     def correction(self, zeta):
-        """``delta`` of the paper's smoother (:mod:`skf_ref.method.paths.spectral`), in place.
+        """``delta`` of the paper's smoother (``skf_ref.method._paths.spectral``), in place.
 
         ``chi`` obeys the scalar recursion on ``zeta``; ``delta_T = 0``,
         ``delta_t = gamma_t delta_{t+1} + (gamma_t - beta_t)(chi_{t+1} - a zeta_t)``.
@@ -270,7 +307,10 @@ class Recursions:
         eta = eta.reshape((T,) + (1,) * (self.p_pred.ndim - 2) + (len(s),))
         # x_{t|t} = a x + K~ (y~ - L~ a x) with K~ = V diag(p s / (s^2 p + 1)) U^T §2.2 (5)
         #         = (a / (s^2 p + 1)) x + (p s / (s^2 p + 1)) eta
-        decay, gain = a / denom, s * self.p_pred / denom
+        # and at a missing step x_{t|t} = a x: no gain                  docs/model.md §2
+        gaps = self._stored_missing()
+        decay = np.where(gaps, a, a / denom)
+        gain = np.where(gaps, 0.0, s * self.p_pred / denom)
         n = len(denom) - self.held  # the steps with their own coefficients
         xi = np.empty(np.broadcast_shapes((T, *denom.shape[1:]), eta.shape))
         np.multiply(gain[:n], eta[:n], out=xi[:n])
@@ -279,9 +319,11 @@ class Recursions:
             np.multiply(gain[-1], eta[n:], out=xi[n:])
             recurrence(decay[-1], xi[n:], start=xi[n - 1] if n else None, out=xi[n:])
         quadratic, residual = 0.0, 0.0
+        observed = ~self.missing.reshape((T,) + (1,) * (xi.ndim - 1))
         for times in _tiles(T):
             previous = xi[times.start - 1 : times.stop - 1] if times.start else _shifted(xi, times)
-            innovation = eta[times] - s * a * previous  # U^T (y~_t - L~ x_{t|t-1})
+            # U^T (y~_t - L~ x_{t|t-1}) at the observed steps: no innovation at a missing one
+            innovation = (eta[times] - s * a * previous) * observed[times]
             d = self.expand(denom, times)
             quadratic = quadratic + np.sum(innovation**2 / d, axis=(0, -1))
             residual = residual + np.sum((innovation / d) ** 2, axis=(0, -1))

@@ -3,9 +3,9 @@
 At a given PM-SNR, the EP-SNR at which the whitened residual of the filtered means, ``sum_t
 ||C^{-1} (y_t - L x_{t|t})||^2``, equals its expected value under the noise model, ``n_channels *
 n_times``; over a range of PM-SNRs, the one of largest marginal likelihood along the curve of those
-solutions. :func:`skf_ref.method.tuning.tune` (``criterion="discrepancy"``) calls
+solutions. :func:`skf_ref.tune` (``criterion="discrepancy"``) calls
 :func:`choose_on_curve` with the residual and the likelihood of
-:class:`skf_ref.method.paths.singular_basis.SpectralBasis`; the functions here see only SNRs in dB
+:class:`skf_ref.method.SpectralBasis`; the functions here see only SNRs in dB
 and the values of those two sums, batched over (PM, EP) pairs.
 """
 
