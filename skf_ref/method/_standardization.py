@@ -69,8 +69,8 @@ def standardization_weights(w, exponent, out=None):
     """
     out = np.empty_like(w, dtype=float) if out is None else out
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        if exponent == 0:
-            out[...] = 1.0
+        if exponent == 0:  # 1, NaN kept (a missing step has no weights)
+            np.add(np.multiply(w, 0.0, out=out), 1.0, out=out)
         elif exponent == 0.5:
             np.reciprocal(np.sqrt(w, out=out), out=out)
         elif exponent == 1:
