@@ -146,7 +146,7 @@ class StateSpaceModel:
         theta0 = check_scalar_or_spd("theta0", theta0, n)
         q = check_scalar_or_spd("q", q, n, allow_zero=True)
         transition = check_transition(transition, n)
-        if np.ndim(q) == 0 and q == 0 and np.ndim(transition) == 0 and transition == 0:
+        if np.ndim(q) == 0 and q == 0 and not np.any(transition):
             raise InputError("q must be > 0 when transition is 0: P_t|t-1 would be 0")
         with np.errstate(over="ignore"):
             predicted = np.float64(np.max(np.abs(transition))) ** 2 * np.max(theta0) + np.max(q)

@@ -22,6 +22,7 @@ import numpy as np
 
 from .._utils.checks import InputError, check_choice, check_db, check_int, check_real, describe
 from .._utils.log import caller_stacklevel
+from .._utils.reprs import html_table
 from ._discrepancy import choose_on_curve
 from ._model import StateSpaceModel
 from ._paths.singular_basis import SpectralBasis, whitener
@@ -88,13 +89,29 @@ class TuneResult:
     residual_energy: float = math.nan
     curve: object = None
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         bounds = ", ".join(f"{name} on its {end} bound" for name, end in self.at_bound.items())
         return (
             f"<TuneResult | PM-SNR {self.pm_snr_db:.2f} dB, EP-SNR {self.ep_snr_db:.2f} dB, "
             f"log-likelihood {self.log_likelihood:.6g}, by {self.criterion}"
             f"{'; ' + bounds if bounds else ''}>"
         )
+
+    def _repr_html_(self) -> str:
+        """The choice as a table, for notebooks (the grid stays in ``landscape``)."""
+        bounds = ", ".join(f"{name}: {end}" for name, end in self.at_bound.items())
+        rows = {
+            "PM-SNR (dB)": f"{self.pm_snr_db:.2f}",
+            "EP-SNR (dB)": f"{self.ep_snr_db:.2f}",
+            "theta0": f"{self.theta0:.6g}",
+            "q": f"{self.q:.6g}",
+            "Log-likelihood": f"{self.log_likelihood:.6g}",
+            "Criterion": self.criterion,
+            "Convention": self.convention,
+            "On a bound": bounds or "none",
+            "Grid cells": len(self.landscape),
+        }
+        return html_table("TuneResult", rows)
 
 
 def _search_range(name, value):
