@@ -18,7 +18,7 @@ _T = TypeVar("_T")
 
 
 @functools.cache
-def _blas():
+def _blas() -> Any:
     from threadpoolctl import ThreadpoolController
 
     return ThreadpoolController()
@@ -58,7 +58,7 @@ def map_threads(func: Callable[[_T], Any], items: Iterable[_T]) -> Iterator[Any]
         return
     pool = _pool(workers)
 
-    def run(item):
+    def run(item: _T) -> Any:
         _WORKER.active = True
         try:
             return func(item)
@@ -81,7 +81,7 @@ _POOLS: dict[int, ThreadPoolExecutor] = {}
 _POOLS_LOCK = threading.Lock()
 
 
-def _pool(workers):
+def _pool(workers: int) -> ThreadPoolExecutor:
     """The persistent pool of ``workers`` threads."""
     with _POOLS_LOCK:
         if workers not in _POOLS:

@@ -113,14 +113,23 @@ class StateSpaceModel:
            [0. , 0. , 0.1]])
     """
 
-    L: np.ndarray
-    R: np.ndarray
-    transition: object
-    q: object
-    theta0: object
+    L: NDArray[np.float64]
+    R: NDArray[np.float64]
+    transition: float | NDArray[np.float64]
+    q: float | NDArray[np.float64]
+    theta0: float | NDArray[np.float64]
 
     @classmethod
-    def create(cls, L, *, noise_std=None, noise_cov=None, theta0, q, transition=1.0):
+    def create(
+        cls,
+        L: ArrayLike,
+        *,
+        noise_std: float | None = None,
+        noise_cov: ArrayLike | None = None,
+        theta0: float | ArrayLike,
+        q: float | ArrayLike,
+        transition: float | ArrayLike = 1.0,
+    ) -> "StateSpaceModel":
         """Check every parameter (names as in :func:`skf_ref.reconstruct`) and build the model.
 
         Returns
@@ -131,7 +140,9 @@ class StateSpaceModel:
         m, n = L.shape
         if (noise_std is None) == (noise_cov is None):
             raise InputError("give exactly one of noise_std (a scalar) or noise_cov (a matrix)")
-        if noise_std is not None:
+        if noise_cov is not None:
+            R = check_spd("noise_cov", noise_cov, m)
+        else:
             noise_std = check_real("noise_std", noise_std, positive=True)
             low, high = np.sqrt(_SMALLEST), np.sqrt(_LARGEST)
             if not low <= noise_std <= high:
@@ -141,8 +152,6 @@ class StateSpaceModel:
                     "other units"
                 )
             R = noise_std**2 * np.eye(m)
-        else:
-            R = check_spd("noise_cov", noise_cov, m)
         theta0 = check_scalar_or_spd("theta0", theta0, n)
         q = check_scalar_or_spd("q", q, n, allow_zero=True)
         transition = check_transition(transition, n)
@@ -158,12 +167,12 @@ class StateSpaceModel:
         return cls(L=L, R=R, transition=transition, q=q, theta0=theta0)
 
     @property
-    def n_channels(self):
+    def n_channels(self) -> int:
         """int : Rows of the lead field."""
         return self.L.shape[0]
 
     @property
-    def n_sources(self):
+    def n_sources(self) -> int:
         """int : Columns of the lead field (state components)."""
         return self.L.shape[1]
 
@@ -185,10 +194,10 @@ class StateSpaceModel:
         -------
         ndarray, shape (n_channels, n_times)
         """
-        Y = np.asarray(Y) if isinstance(Y, list) else Y
-        if np.ndim(Y) == 2 and len(Y) != self.n_channels and len(Y) == self.n_sources:
+        rows = np.shape(Y)[0] if np.ndim(Y) == 2 else None
+        if rows is not None and rows != self.n_channels and rows == self.n_sources:
             raise InputError(
-                f"L must have shape (n_channels, n_sources) with Y's {len(Y)} channels as its "
+                f"L must have shape (n_channels, n_sources) with Y's {rows} channels as its "
                 f"rows, got L of shape {self.L.shape}: L looks transposed (give L.T); Y has "
                 f"shape {np.shape(Y)}"
             )
@@ -208,12 +217,12 @@ class StateSpaceModel:
             )
         return Y
 
-    def _check_reference(self, Y):
+    def _check_reference(self, Y: NDArray[np.float64]) -> None:
         """Refuse average-referenced data with a lead field that is not (docs/model.md §1).
 
         "Average referenced" to the precision each carries: float32 values (MNE's files)
         have a channel mean of float32's rounding, not double's
-        (:func:`skf_ref._utils.precision.average_referenced`).
+        (``skf_ref._utils.precision.average_referenced``).
         """
         if self.n_channels < 3 or not np.any(Y):
             return
@@ -227,16 +236,16 @@ class StateSpaceModel:
             )
 
     @functools.cached_property
-    def _field_referenced(self):
+    def _field_referenced(self) -> bool:
         """Whether every column of ``L`` has a channel mean of 0 to its precision."""
         return average_referenced(self.L, per_column=True)
 
-    def matrix(self, name):
+    def matrix(self, name: str) -> NDArray[np.float64]:
         """``"transition"``, ``"q"`` or ``"theta0"`` as an (n_sources, n_sources) matrix."""
         value = getattr(self, name)
         return value * np.eye(self.n_sources) if np.ndim(value) == 0 else value
 
-    def scalar(self, name):
+    def scalar(self, name: str) -> float | None:
         """``c`` if ``transition``, ``q`` or ``theta0`` is a scalar ``c`` or ``c I``, else None."""
         value = getattr(self, name)
         if np.ndim(value) == 0:
@@ -246,7 +255,7 @@ class StateSpaceModel:
         isotropic = np.all(diagonal == c) and np.count_nonzero(value) == np.count_nonzero(diagonal)
         return float(c) if isotropic else None
 
-    def isotropic_problem(self):
+    def isotropic_problem(self) -> str | None:
         """Why the model is not ``A = a I, Q = q I, P_0 = theta0 I``, or None if it is.
 
         The spectral path (``skf_ref.method._paths.spectral``) needs exactly that model.

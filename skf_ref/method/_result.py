@@ -1,7 +1,7 @@
 """The result type every computational path returns, and the per-position amplitude.
 
 The result holds results; the paths compute them (the smoothers included). A path hands
-over its outputs as arrays, or as a :class:`~._outputs.LazyOutputs` that computes them when
+over its outputs as arrays, or as a ``LazyOutputs`` (``_outputs``) that computes them when
 asked.
 """
 

@@ -40,12 +40,15 @@ and the smoother's gains when used). A recording without gaps is held as before.
 """
 
 import functools
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import signal
 
 __all__ = ["Recursions", "backward", "fixed_point", "recurrence"]
+
+_Array = NDArray[np.float64]
 
 #: Relative change of ``p_{t|t-1}`` over the rest of the recording below which
 #: :class:`Recursions` holds it (module docstring): 45 units of double rounding, 10 times
@@ -59,7 +62,7 @@ _CHECK_STEPS = 32
 LFILTER_STEPS = 4096
 
 
-def fixed_point(s, a, q):
+def fixed_point(s: _Array, a: float, q: ArrayLike) -> _Array:
     """``p_inf``, the limit of ``p_{t|t-1}``: positive root of ``s^2 p^2 + b p - q = 0``.
 
     ``b = 1 - a^2 - q s^2``; each root formula is used where it does not cancel. NaN where
@@ -165,11 +168,11 @@ class Recursions:
         self.u = _complement(a, q, theta0, batch, n_times)
 
     @property
-    def held(self):
+    def held(self) -> bool:
         """bool : Whether the recording reaches the steady state."""
         return self.steady < self.n_times
 
-    def expand(self, rows, times):
+    def expand(self, rows: _Array, times: slice) -> _Array:
         """Rows of a per-step array of ``p_pred``'s length at steps ``times`` (a slice)."""
         first, stop, _ = times.indices(self.n_times)
         index = np.minimum(np.arange(first, stop), len(rows) - 1)
@@ -208,7 +211,7 @@ class Recursions:
         return np.sum(observed, axis=0) + (self.n_times - len(terms)) * terms[-1]
 
     @functools.cached_property
-    def gains(self):
+    def gains(self) -> tuple[_Array, _Array]:
         """The smoother's gains: ``gamma_t`` on span V, ``beta_t`` on its complement.
 
         Returns
@@ -226,7 +229,7 @@ class Recursions:
             gamma = np.concatenate([gamma, self.a * p_filt[-1:] / p_pred[-1:]])
         return gamma, self.a / (self.a**2 + self.u[:-1])
 
-    def smooth_state(self, xi):
+    def smooth_state(self, xi: _Array) -> _Array:
         """``"rts-state"`` in the basis: ``xi^s_t = xi_t + gamma_t (xi^s_{t+1} - a xi_t)``.
 
         Parameters
@@ -243,7 +246,7 @@ class Recursions:
         out[-1] = xi[-1]
         return self._backward_gamma(out)
 
-    def correction(self, zeta):
+    def correction(self, zeta: _Array) -> _Array:
         """``delta`` of the paper's smoother (``skf_ref.method._paths.spectral``), in place.
 
         ``chi`` obeys the scalar recursion on ``zeta``; ``delta_T = 0``,
@@ -268,13 +271,13 @@ class Recursions:
         zeta[-1] = 0.0
         return self._backward_gamma(zeta)
 
-    def _gamma(self, times):
+    def _gamma(self, times: slice) -> _Array:
         """``gamma_t`` at steps ``times`` (within 0 .. T-2), the held row past the stored."""
         gamma, _ = self.gains
         first, stop, _ = times.indices(self.n_times - 1)
         return gamma[np.minimum(np.arange(first, stop), len(gamma) - 1)]
 
-    def _backward_gamma(self, c):
+    def _backward_gamma(self, c: _Array) -> _Array:
         """``x_t = gamma_t x_{t+1} + c_t``, t = T-2 .. 0, from ``x_{T-1} = c_{T-1}``; in place."""
         gamma, _ = self.gains
         own, last = len(gamma) - self.held, len(c) - 1  # steps with their own gain; T-1
@@ -284,7 +287,7 @@ class Recursions:
             recurrence(gamma[:own], c[:own], start=c[own], out=c[:own], reverse=True)
         return c
 
-    def filter_means(self, eta):
+    def filter_means(self, eta: _Array) -> tuple[_Array, Any, Any]:
         """The filtered means in the basis and two sums over their innovations.
 
         Parameters
@@ -330,7 +333,7 @@ class Recursions:
         return xi, quadratic, residual
 
 
-def _settled(p_pred, target, rtol):
+def _settled(p_pred: _Array, target: _Array, rtol: float) -> int | None:
     """First row of ``p_pred`` within ``rtol / 2`` of ``target`` in every entry, or None."""
     with np.errstate(invalid="ignore"):
         close = np.abs(p_pred - target) <= rtol / 2 * target
@@ -338,7 +341,9 @@ def _settled(p_pred, target, rtol):
     return int(rows[0]) if len(rows) else None
 
 
-def _complement(a, q, theta0, batch, n_times):
+def _complement(
+    a: float, q: _Array, theta0: _Array, batch: tuple[int, ...], n_times: int
+) -> _Array:
     """``u_t = q / c_{t|t-1}`` (n_times, ...) with ``c' = a^2 c + q``: ``u' = u / (a^2 + u)``.
 
     ``c`` grows as ``a^(2t)`` when ``|a| > 1`` and would overflow on long runs; ``u`` stays
@@ -359,18 +364,24 @@ def _complement(a, q, theta0, batch, n_times):
     return np.nan_to_num(u)
 
 
-def _tiles(n_times, steps=8192):
+def _tiles(n_times: int, steps: int = 8192) -> list[slice]:
     return [slice(t, min(t + steps, n_times)) for t in range(0, n_times, steps)]
 
 
-def _shifted(xi, times):
+def _shifted(xi: _Array, times: slice) -> _Array:
     """``xi`` at steps ``times`` shifted one step back, with zeros before step 0."""
     previous = np.zeros((times.stop - times.start, *xi.shape[1:]))
     previous[1:] = xi[: times.stop - 1]
     return previous
 
 
-def recurrence(decay, c, start=None, out=None, reverse=False):
+def recurrence(
+    decay: Any,
+    c: _Array,
+    start: Any = None,
+    out: _Array | None = None,
+    reverse: bool = False,
+) -> _Array:
     """``x_t = decay_t x_{t-1} + c_t`` from ``x_{-1} = start`` (default 0), elementwise.
 
     With ``reverse`` the recursion runs from the end: ``x_t = decay_t x_{t+1} + c_t`` from
@@ -430,7 +441,7 @@ CHUNK_STEPS = 16
 CHUNK_COLUMNS = 2048
 
 
-def backward(z, gain, a, overwrite=False):
+def backward(z: _Array, gain: _Array, a: float, overwrite: bool = False) -> _Array:
     """``s_t = z_t + G_t (s_{t+1} - a z_t)``, ``s_T = z_T``; one scalar gain per step, (T-1,).
 
     With ``overwrite`` the result replaces ``z`` (step t reads only ``z_t`` and ``s_{t+1}``).
@@ -463,7 +474,7 @@ def backward(z, gain, a, overwrite=False):
     return s
 
 
-def _chunk_matrices(gain, a, b):
+def _chunk_matrices(gain: _Array, a: float, b: int) -> _Array:
     """The backward pass over chunks of ``b`` steps as matrices, (len(gain) // b, b, b + 1).
 
     For the chunk of steps ``t0 .. t0+b-1``, ``s[t0:t0+b] = M @ v`` with ``v`` the rows

@@ -14,6 +14,7 @@ about the cost of one filter.
 """
 
 import functools
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -38,7 +39,7 @@ _PRIORS_AT_ONCE = 16
 _PROJECT_STEPS = 8192
 
 
-def whitener(R):
+def whitener(R: NDArray[np.float64]) -> tuple[Callable[[Any], NDArray[np.float64]], float]:
     """``M -> C^{-1} M`` and ``log|det C|`` with ``R = C C^T`` (Cholesky).
 
     Parameters
@@ -56,7 +57,9 @@ def whitener(R):
     return functools.partial(linalg.solve_triangular, C, lower=True), np.sum(np.log(np.diag(C)))
 
 
-def thin_svd(Lw, whiten=None):
+def thin_svd(
+    Lw: NDArray[np.float64], whiten: Callable[[Any], NDArray[np.float64]] | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Thin SVD of the whitened lead field, truncated to its numerical rank.
 
     Parameters
@@ -93,7 +96,7 @@ def thin_svd(Lw, whiten=None):
     step = max(2 * m, _SVD_BLOCK_BYTES // (8 * m))
     blocks = [slice(start, min(start + step, n)) for start in range(0, n, step)]
 
-    def factor(rows):
+    def factor(rows: slice) -> tuple[Any, Any, NDArray[np.float64]]:
         block = whiten(Lw[:, rows]).T  # A_i, Fortran-ordered as LAPACK uses it
         block = block.copy(order="F") if np.shares_memory(block, Lw) else block
         block = np.asfortranarray(block)
@@ -112,7 +115,7 @@ def thin_svd(Lw, whiten=None):
     offsets = np.cumsum([0] + [min(m, rows.stop - rows.start) for rows in blocks])
     V = np.empty((n, rank))
 
-    def fill(i):
+    def fill(i: int) -> None:
         reflectors, T, _ = factors[i]
         _apply_q(reflectors, T, B[offsets[i] : offsets[i + 1]].T, out=V[blocks[i]].T)
 
@@ -129,14 +132,19 @@ def thin_svd(Lw, whiten=None):
     return U, s, V
 
 
-def _qr(A, overwrite=False):
+def _qr(A: NDArray[np.float64], overwrite: bool = False) -> tuple[Any, Any]:
     """QR of ``A`` (k, m) as LAPACK's reflectors and compact WY factor (geqrt); with
     ``overwrite`` the reflectors take the place of a Fortran-ordered ``A``."""
     reflectors, T, _ = lapack.dgeqrt(min(_QR_PANEL, *A.shape), A, overwrite_a=overwrite)
     return reflectors, T
 
 
-def _apply_q(reflectors, T, Ct, out=None):
+def _apply_q(
+    reflectors: NDArray[np.float64],
+    T: NDArray[np.float64],
+    Ct: NDArray[np.float64],
+    out: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
     """``(Q [C; 0])^T`` for the Q of :func:`_qr`, from ``Ct = C^T`` (p, <= k): (p, k).
 
     Written into ``out`` (p, k) when given; it must be Fortran-ordered, as the transpose of
@@ -196,13 +204,13 @@ class SpectralBasis:
     (2,)
     """
 
-    def __init__(self, L, R):
+    def __init__(self, L: NDArray[np.float64], R: NDArray[np.float64]) -> None:
         self.n_channels, self.n_sources = L.shape
         self.whiten, self.log_det_C = whitener(R)
         self.U, self.s, self.V = thin_svd(L, self.whiten)
 
     @property
-    def rank(self):
+    def rank(self) -> int:
         """int : Numerical rank of the whitened lead field."""
         return len(self.s)
 
@@ -223,7 +231,9 @@ class SpectralBasis:
             rho_sq += float(np.sum((Yw - self.U @ eta[steps].T) ** 2))
         return eta, rho_sq
 
-    def log_likelihood(self, Y, theta0, q, transition=1.0):
+    def log_likelihood(
+        self, Y: NDArray[np.float64], theta0: ArrayLike, q: ArrayLike, transition: float = 1.0
+    ) -> Any:
         """The innovation log-likelihood of ``Y`` for each of many priors, no (n, T) array.
 
         Parameters
@@ -242,7 +252,9 @@ class SpectralBasis:
         """
         return self._sums(Y, theta0, q, transition)[0]
 
-    def residual_energy(self, Y, theta0, q, transition=1.0):
+    def residual_energy(
+        self, Y: NDArray[np.float64], theta0: ArrayLike, q: ArrayLike, transition: float = 1.0
+    ) -> Any:
         r"""The whitened residual of the filtered means, ``sum_t ||C^{-1} (y_t - L x_{t|t})||^2``.
 
         For each of many priors, with no (n, T) array: on span U the residual is the

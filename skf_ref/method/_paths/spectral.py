@@ -153,6 +153,7 @@ class SpectralModel:
         """The covariance recursion over ``n_times`` steps with these missing steps,
         refused before any output if it leaves double precision."""
         q, theta0 = self.model.scalar("q"), self.model.scalar("theta0")
+        assert q is not None and theta0 is not None  # isotropic (checked by __init__)
         recursions = Recursions(self.s, self.a, q, theta0, self.n_times, missing=missing)
         log_det_S = recursions.log_det_innovations()
         if not (np.isfinite(recursions.p_pred).all() and np.isfinite(log_det_S)):

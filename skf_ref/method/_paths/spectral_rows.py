@@ -25,6 +25,7 @@ so that the paper's smoother's scalar recursion runs along contiguous rows.
 """
 
 from collections.abc import Iterator, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -70,6 +71,9 @@ PROJECTION_STEPS = 8192
 CACHE_BYTES = 256 * 2**20
 
 
+_Array = NDArray[np.float64]
+
+
 class Standardization:
     """``W_t^(alpha)`` of one model and exponent, for any rows and steps: no data needed.
 
@@ -85,24 +89,29 @@ class Standardization:
     exponent : float
     """
 
-    def __init__(self, V, omega, steady, n_times, exponent):
+    def __init__(
+        self, V: _Array, omega: _Array, steady: int, n_times: int, exponent: float
+    ) -> None:
         self.V, self.omega, self.exponent = V, omega, exponent
         self.steady, self.n_times = steady, n_times
-        self._scale = self._cache = self._projector = None
+        # what the tiles share, computed once (prepare, projector)
+        self._scale: Any = None
+        self._cache: Any = None
+        self._projector: Any = None
         self.applications = 0  # data sets this standardization served (SpectralRows)
 
     @property
-    def held(self):
+    def held(self) -> bool:
         """bool : Whether the recording reaches the steady state."""
         return self.steady < self.n_times
 
     @property
-    def kept(self):
+    def kept(self) -> bool:
         """bool : Whether the weights of the steps before ``steady`` are kept
         (:data:`CACHE_BYTES`)."""
         return self._cache is not None
 
-    def prepare(self):
+    def prepare(self) -> None:
         """Compute what the tiles share, in the calling thread (the workers only read it)."""
         if self.held and self._scale is None:
             # W^(alpha) = Diag((V o V) omega)^(-alpha), one number a row  §2.2 (7)
@@ -114,7 +123,7 @@ class Standardization:
         if self._cache is None and self.applications > 1 and 0 < 8 * n * S <= CACHE_BYTES:
             cache = np.empty((S, n))  # time-major, as the outputs held in memory
 
-            def fill(item):  # in the tiles of a time-major output: the same products
+            def fill(item: tuple[slice, slice]) -> None:  # the tiles of a time-major output
                 rows, times = item
                 self.transient(rows, times, cache[times, rows].T)
 
@@ -122,7 +131,7 @@ class Standardization:
                 pass
             self._cache = cache
 
-    def transient(self, rows, times, out=None):
+    def transient(self, rows: slice, times: slice, out: _Array | None = None) -> _Array:
         """The weights of ``rows`` at ``times`` (steps before ``steady``): (n_rows, n_steps).
 
         Parameters
@@ -142,17 +151,17 @@ class Standardization:
         w = np.matmul(np.square(self.V[rows]), self.omega[times].T, out=out)
         return standardization_weights(w, self.exponent, out=w)
 
-    def scale(self, rows):
+    def scale(self, rows: slice) -> _Array:
         """The held weights of ``rows``, (n_rows, 1): ``W^(alpha)`` from ``steady`` on."""
         return self._scale[rows, None]
 
-    def raw(self, rows, times):
+    def raw(self, rows: slice, times: slice) -> _Array:
         """Raw weights ``w_t`` of ``rows`` at any steps, (n_rows, n_steps), for a diagnosis."""
         first, stop, _ = times.indices(self.n_times)
         index = np.minimum(np.arange(first, stop), len(self.omega) - 1)
         return (self.V[rows] ** 2) @ self.omega[index].T
 
-    def projector(self):
+    def projector(self) -> _Array:
         """``V^T D V`` (r, r): ``zeta_t = V^T z_t`` from ``u_t`` in the steady state."""
         if self._projector is None:
             self.prepare()
@@ -201,11 +210,12 @@ class SpectralRows:
         self.recursions = recursions
         # P_{t|t-1}^{-1/2} x = V diag(p^{-1/2}) xi                      §2.2 (6)
         self.u = self._whitened(xi)
-        self.xi_smoothed = self.u_smoothed = None
+        self.xi_smoothed: Any = None
+        self.u_smoothed: Any = None
         if smoother == "rts-state":
             self.xi_smoothed = recursions.smooth_state(xi)
             self.u_smoothed = self._whitened(self.xi_smoothed)
-        self._delta = None
+        self._delta: Any = None
 
     # --- the LazyOutputs protocol -----------------------------------------------------------
 
@@ -237,22 +247,18 @@ class SpectralRows:
                 yield where, many[where.start - first : where.stop - first]
             del many  # before the next group is computed
 
-    def share(self, name: str, rows: slice) -> NDArray[np.float64] | None:
+    def share(self, name: str, rows: slice) -> _Array | None:
         """These rows' share of what every block of ``name`` needs: of ``zeta = V^T
         z_{t|t}`` for the paper's smoothed ``z`` (:meth:`projection`), else None."""
         return self.projection(rows) if self._needs_correction(name) else None
 
-    def combine(
-        self, name: str, shares: Sequence[NDArray[np.float64] | None]
-    ) -> NDArray[np.float64] | None:
+    def combine(self, name: str, shares: Sequence[Any]) -> _Array | None:
         """The correction of the paper's smoother from every block's share (else None)."""
         if not self._needs_correction(name):
             return None
         return self.correction_from(np.sum(shares, axis=0))
 
-    def block(
-        self, name: str, rows: slice, shared: NDArray[np.float64] | None = None
-    ) -> NDArray[np.float64]:
+    def block(self, name: str, rows: slice, shared: Any = None) -> _Array:
         """Rows ``rows`` of output ``name``, (n_rows, n_times) C-ordered; ``shared`` is
         :meth:`combine`'s result (computed here, by a pass over every row, when None)."""
         return self._fill_block(name, rows, delta=shared).T
@@ -269,14 +275,16 @@ class SpectralRows:
     def _needs_correction(self, name: str) -> bool:
         return name == "z" and self.smoother == "rts-standardized"
 
-    def _whitened(self, xi):
+    def _whitened(self, xi: _Array) -> _Array:
         root = np.sqrt(self.recursions.p_pred)
         own = len(root) - self.recursions.held
         return np.concatenate([xi[:own] / root[:own], xi[own:] / root[-1]])
 
     # --- one block of rows ------------------------------------------------------------------
 
-    def _fill_block(self, name, columns, out=None, delta=None):
+    def _fill_block(
+        self, name: str, columns: slice, out: _Array | None = None, delta: _Array | None = None
+    ) -> _Array:
         """Rows ``columns`` of output ``name``, as a (n_times, n_rows) array.
 
         Computed in tiles on worker threads (``skf_ref._utils.threads.map_threads``).
@@ -306,19 +314,19 @@ class SpectralRows:
             self._fill(name, first, stop, target)
         return target.T
 
-    def _fill(self, name, first, stop, target):
+    def _fill(self, name: str, first: int, stop: int, target: _Array) -> None:
         """Output ``name`` (not the paper's smoothed z) of rows first:stop into ``target``."""
         if name in ("z", "z_filtered", "weights"):
             self.standardization.prepare()
 
-        def tile(item):
+        def tile(item: tuple[slice, slice]) -> None:
             rows, times = item
             self._tile(name, rows, times, target[rows.start - first : rows.stop - first, times])
 
         for _ in map_threads(tile, _tiles(first, stop, self.n_times, target)):
             pass
 
-    def _tile(self, name, rows, times, out):
+    def _tile(self, name: str, rows: slice, times: slice, out: _Array) -> _Array:
         """Output ``name`` of ``rows`` at ``times`` into ``out`` (n_rows, n_steps)."""
         if name == "x_filtered" or (name == "x" and self.smoother != "rts-state"):
             return np.matmul(self.V[rows], self.xi[times].T, out=out)
@@ -337,7 +345,7 @@ class SpectralRows:
         smoothed = name == "z" and self.smoother == "rts-state"
         return self._standardized(self.u_smoothed if smoothed else self.u, rows, times, out)
 
-    def _standardized(self, u, rows, times, out):
+    def _standardized(self, u: _Array, rows: slice, times: slice, out: _Array) -> _Array:
         """``z_t = W_t^(alpha) V u_t`` of ``rows`` at ``times`` into ``out``.  §2.2 (6)-(7)"""
         transient, held = _split(times, self.steady)
         V = self.V[rows]
@@ -352,11 +360,11 @@ class SpectralRows:
 
     # --- the paper's smoother ---------------------------------------------------------------
 
-    def _transient(self, rows, out):
+    def _transient(self, rows: slice, out: _Array) -> _Array:
         """z_{t|t} of ``rows`` before ``steady`` into ``out`` (n_rows, n_times)."""
         return self._standardized(self.u, rows, slice(0, self.steady), out[:, : self.steady])
 
-    def _smooth_transient(self, time_major, columns, eta):
+    def _smooth_transient(self, time_major: _Array, columns: slice, eta: Any) -> None:
         """The smoothed ``h`` before ``steady`` of ``columns``, in place of their z_{t|t} in
         ``time_major`` (n_times, n_rows): the scalar recursion from
         ``h_steady = D V eta_0`` (or from ``z_T`` if the recording ends before ``steady``).
@@ -373,7 +381,7 @@ class SpectralRows:
             np.multiply(self.V[columns] @ eta[0], scale, out=h[S])
         backward(h, beta[: len(h) - 1], self.a, overwrite=True)
 
-    def _corrected(self, rows, times, out, correction):
+    def _corrected(self, rows: slice, times: slice, out: _Array, correction: _Array) -> _Array:
         """``s = h + V delta`` of ``rows`` at ``times``: ``out`` holds ``h`` before steady;
         from ``steady`` on ``s_t = [D V, V] [eta_t; delta_t]``, one product."""
         transient, held = _split(times, self.steady)
@@ -387,12 +395,12 @@ class SpectralRows:
             np.matmul(stacked, correction[held].T, out=out[:, held.start - times.start :])
         return out
 
-    def _fill_smoothed(self, first, stop, target, correction):
+    def _fill_smoothed(self, first: int, stop: int, target: _Array, correction: _Array) -> None:
         """The paper's smoothed z of rows first:stop into ``target`` (n_rows, n_times)."""
         S = self.steady
         eta = correction[S:, : self.V.shape[1]]
 
-        def rows_of(rows):
+        def rows_of(rows: slice) -> None:
             where = target[rows.start - first : rows.stop - first]
             self._transient(rows, where)
             if S:
@@ -402,11 +410,11 @@ class SpectralRows:
             pass
         self._correct(first, stop, target, correction)
 
-    def _correct(self, first, stop, target, correction):
+    def _correct(self, first: int, stop: int, target: _Array, correction: _Array) -> None:
         """``s = h + V delta`` of rows first:stop into ``target`` (n_rows, n_times), which
         holds ``h`` before the steady state (:meth:`_corrected`), tile by tile."""
 
-        def tile(item):
+        def tile(item: tuple[slice, slice]) -> None:
             rows, times = item
             where = target[rows.start - first : rows.stop - first, times]
             self._corrected(rows, times, where, correction)
@@ -414,7 +422,7 @@ class SpectralRows:
         for _ in map_threads(tile, _tiles(first, stop, self.n_times, target)):
             pass
 
-    def projection(self, columns, times=None):
+    def projection(self, columns: slice, times: slice | None = None) -> _Array:
         """These rows' share of ``zeta = V^T z_{t|t}`` at steps ``times``: (n_steps, r).
 
         ``times`` defaults to the steps before the steady state, the only ones
@@ -430,7 +438,7 @@ class SpectralRows:
             share[steps.start - first : steps.stop - first] += z.T @ self.V[rows]
         return share
 
-    def correction(self):
+    def correction(self) -> _Array:
         """The "rts-standardized" correction (:meth:`correction_from`), by one pass over
         every row; computed once, then kept.
 
@@ -453,7 +461,7 @@ class SpectralRows:
             self._delta = self.correction_from(zeta)
         return self._delta
 
-    def correction_from(self, zeta, eta=None):
+    def correction_from(self, zeta: _Array, eta: _Array | None = None) -> _Array:
         """The correction from ``zeta = V^T z_{t|t}`` before the steady state.
 
         Parameters
@@ -480,7 +488,7 @@ class SpectralRows:
             correction[S:, :r] = self._steady_means() if eta is None else eta
         return correction
 
-    def _steady_means(self):
+    def _steady_means(self) -> _Array:
         """eta (T - steady, r): ``h_t = D V eta_t`` from ``steady`` on (h's scalar recursion
         on ``u``, which stays in span ``D V`` there)."""
         _, beta = self.recursions.gains
@@ -517,7 +525,7 @@ class SpectralRows:
         if S:
             tiles = _tiles(0, n, S, result.T)
 
-            def transient(item):  # z_{t|t} of a tile before steady, and its share of zeta
+            def transient(item: tuple[slice, slice]) -> _Array:  # z_{t|t}, its share of zeta
                 rows, times = item
                 z = self._standardized(self.u, rows, times, result[times, rows].T)
                 return z.T @ self.V[rows]
@@ -534,25 +542,27 @@ class SpectralRows:
         return result
 
 
-def _split(times, steady):
+def _split(times: slice, steady: int) -> tuple[slice | None, slice | None]:
     """``times`` cut at ``steady``: the steps before it and from it on (None when empty)."""
     first, stop = times.start, times.stop
     cut = min(max(steady, first), stop)
     return (slice(first, cut) if cut > first else None), (slice(cut, stop) if stop > cut else None)
 
 
-def _slices(first, stop, step):
+def _slices(first: int, stop: int, step: int) -> Iterator[slice]:
     """Consecutive slices of ``first:stop``, ``step`` long (the last may be shorter)."""
     for start in range(first, stop, step):
         yield slice(start, min(start + step, stop))
 
 
-def _row_blocks(first, stop, n_steps):
+def _row_blocks(first: int, stop: int, n_steps: int) -> list[slice]:
     """Row blocks of ``first:stop`` of about :data:`BLOCK_BYTES` at ``n_steps`` steps."""
     return list(_slices(first, stop, max(1, BLOCK_BYTES // (8 * n_steps))))
 
 
-def _tiles(first, stop, n_times, target=None):
+def _tiles(
+    first: int, stop: int, n_times: int, target: _Array | None = None
+) -> list[tuple[slice, slice]]:
     """(rows, steps) tiles of rows ``first:stop`` x all steps, about BLOCK_BYTES each:
     whole rows when they fit MIN_BLOCK_COLUMNS at a time, else cut in steps too. In a
     time-major ``target`` (the transpose of an (n_times, n) array) a tile is
@@ -564,7 +574,9 @@ def _tiles(first, stop, n_times, target=None):
     return [(r, t) for r in _slices(first, stop, rows) for t in _slices(0, n_times, steps)]
 
 
-def _tiles_by_steps(first, stop, step_first, step_stop):
+def _tiles_by_steps(
+    first: int, stop: int, step_first: int, step_stop: int
+) -> Iterator[tuple[slice, slice]]:
     """(steps, rows) tiles of the steps ``step_first:step_stop``, steps outermost."""
     n = step_stop - step_first
     width = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * max(1, min(n, 8192))))
@@ -573,7 +585,7 @@ def _tiles_by_steps(first, stop, step_first, step_stop):
             yield steps, rows
 
 
-def _add_product(out, V_rows, delta):
+def _add_product(out: _Array, V_rows: _Array, delta: _Array) -> _Array:
     """``out += V_rows @ delta.T`` ((k, n) += (k, r) (r, n)) without a (k, n) temporary
     where ``out`` is C-contiguous (BLAS gemm with beta = 1 accumulates into it); else
     through a temporary in ``out``'s own order."""
