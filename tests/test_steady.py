@@ -1,6 +1,6 @@
 """The steady state of the spectral path: held recursions equal the full ones to 1e-12.
 
-From the step where the covariance recursion has settled (skf_ref/method/paths/recursions.py)
+From the step where the covariance recursion has settled (skf_ref/method/_paths/recursions.py)
 the spectral path holds it, and computes every output with constant weights: one product a
 step, the paper's smoother in the rank-r space. These tests run problems long enough to
 settle and compare with the full recursion (``STEADY_RTOL < 0`` never holds) and with the

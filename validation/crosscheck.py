@@ -6,7 +6,7 @@ Run from the repository root::
     python -m validation.crosscheck --paths filterpy
 
 Each path in :data:`PATHS` reconstructs a grid of seeded random problems, and its result is
-compared with that of the reference path :data:`REFERENCE` (``skf_ref/method/paths/dense.py``, the
+compared with that of the reference path :data:`REFERENCE` (``skf_ref/method/_paths/dense.py``, the
 readable statement of the algorithm). The grid crosses
 
 - orientation: fixed (one column per position) and free (three, MNE's order);

@@ -5,7 +5,7 @@
 hour-like recording), ``"rts-standardized"`` smoothing, exponent 1.25, its smoothed ``z``
 (16 GB) written by ``Reconstruction.to_zarr``, block of rows by block, in a fresh process,
 which reports its wall time, its CPU time (every thread), the step from which the
-recursions are held (the steady state, skf_ref/method/paths/recursions.py) and its peak
+recursions are held (the steady state, skf_ref/method/_paths/recursions.py) and its peak
 resident memory (``VmHWM`` of ``/proc/self/status``: on Linux ``ru_maxrss`` of a child
 counts its parent's resident memory at the fork, 4.9 GiB once after the bench's largest
 sizes). The machine's load is recorded before it starts. ``python -m

@@ -166,9 +166,9 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
     """Write outputs to a zarr store (a folder), one block of rows at a time.
 
     No output is held whole: memory is the r x T quantities, the block being computed and
-    at most :data:`WRITE_BEHIND_BYTES` of blocks waiting for the disk. The store is
+    at most ``WRITE_BEHIND_BYTES`` (128 MiB) of blocks waiting for the disk. The store is
     written under a temporary name beside ``path`` and renamed when complete
-    (:func:`new_store`), so an interruption leaves no half-written store.
+    (``new_store``), so an interruption leaves no half-written store.
 
     Parameters
     ----------
