@@ -215,3 +215,20 @@ def test_paths_agree_on_random_gapped_problems(kwargs):
         for name in OUTPUTS:
             assert relative(getattr(other, name), getattr(dense, name)) <= 1e-8, (method, name)
         assert other.log_likelihood == pytest.approx(dense.log_likelihood, rel=1e-8, abs=1e-8)
+
+
+@pytest.mark.parametrize("criterion", ["likelihood", "discrepancy"])
+def test_priors_chosen_from_gapped_data(criterion):
+    # tune's grid sums the observed steps, as reconstruct does at the priors it chose
+    from skf_ref import tune
+
+    kwargs = problem(T=60, gaps=((10, 20), (55, 60)))
+    result = tune(kwargs["L"], kwargs["Y"], noise_std=0.5, grid=5, criterion=criterion,
+                  pm_snr_db=0.0, ep_snr_db=(-20.0, 80.0))  # fmt: skip
+    assert not result.at_bound
+    rec = reconstruct(**{**kwargs, "theta0": result.theta0, "q": result.q}, method="dense")
+    assert result.log_likelihood == pytest.approx(rec.log_likelihood, rel=1e-10)
+    if criterion == "discrepancy":  # m T over the observed steps: 6 x 45
+        residual = np.nansum((kwargs["Y"] - kwargs["L"] @ rec.x_filtered) ** 2) / 0.25
+        assert result.residual_energy == pytest.approx(residual, rel=1e-10)
+        assert result.residual_energy == pytest.approx(6 * 45, rel=1e-6)
