@@ -249,7 +249,8 @@ def test_standardized_means_equal_the_z_of_standardize(exponent):
 
 
 def test_time_major_tiles_cover_every_entry_once_in_wide_runs():
-    from skf_ref.method._paths.spectral_rows import TIME_MAJOR_COLUMNS, _tiles
+    from skf_ref.method._paths.tiles import TIME_MAJOR_COLUMNS
+    from skf_ref.method._paths.tiles import tiles as _tiles
 
     n, T = 2 * TIME_MAJOR_COLUMNS + 5, 300
     for target, width in ((np.empty((T, n)).T, TIME_MAJOR_COLUMNS), (np.empty((n, T)), None)):

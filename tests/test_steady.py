@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from skf_ref import priors_from_snr, reconstruct
 from skf_ref._utils.threads import map_threads
 from skf_ref.method import SpectralModel, StateSpaceModel
-from skf_ref.method._paths import recursions, spectral_rows
+from skf_ref.method._paths import recursions, tiles, weights
 from skf_ref.method._paths.recursions import Recursions, fixed_point, recurrence
 
 QUANTITIES = ("z", "x", "z_filtered", "x_filtered", "weights")
@@ -127,8 +127,8 @@ def test_streamed_tiles_equal_the_whole_arrays(monkeypatch, smoother):
     # projections a cluster would sum (to_dask): the same numbers as the whole arrays
     problem = settling_problem(seed=2, n=40, T=200)
     whole = reconstruct(**problem, exponent=1.25, smoother=smoother)
-    monkeypatch.setattr(spectral_rows, "BLOCK_BYTES", 8 * 7 * 13)
-    monkeypatch.setattr(spectral_rows, "MIN_BLOCK_COLUMNS", 7)
+    monkeypatch.setattr(tiles, "BLOCK_BYTES", 8 * 7 * 13)
+    monkeypatch.setattr(tiles, "MIN_BLOCK_COLUMNS", 7)
     streamed = reconstruct(**problem, exponent=1.25, smoother=smoother)
     rows = streamed.lazy_outputs
     assert 0 < rows.steady < 100
@@ -154,7 +154,7 @@ def test_a_model_applied_again_reuses_its_weights(monkeypatch):
     np.testing.assert_array_equal(prepared.apply(Y, 1.25, "rts-state").z, first)
     assert standardization.kept  # the steps before the steady state, from the second on
     np.testing.assert_array_equal(prepared.apply(Y, 1.25, "rts-state").z, first)
-    monkeypatch.setattr(spectral_rows, "CACHE_BYTES", 0)
+    monkeypatch.setattr(weights, "CACHE_BYTES", 0)
     uncached = SpectralModel(model, n_times=100)
     for _ in range(2):
         np.testing.assert_allclose(uncached.apply(Y, 1.25, "rts-state").z, first, rtol=1e-14)

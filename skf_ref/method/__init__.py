@@ -10,8 +10,8 @@ the ones most scripts need. Its modules (leading underscore) are the implementat
 - ``_paths``: the three computational paths: ``dense`` (the readable statement of the
   algorithm, one equation a line), ``filterpy_skf`` (a subclass of filterpy's
   ``KalmanFilter``) and ``spectral`` (exact and fast for isotropic priors, with
-  ``singular_basis``, ``recursions`` and ``spectral_rows``); docs/model.md §9 says why they
-  agree;
+  ``singular_basis``, ``recursions``, ``weights``, ``tiles`` and ``spectral_rows``);
+  docs/model.md §9 says why they agree;
 - ``_settings``: the recommended setting and the paper's, and the one check of a run's
   settings; ``_reconstruct``: the entry point that checks once and picks a path;
 - ``_result``: the result type every path returns; ``_outputs``: the names of its outputs

@@ -87,7 +87,8 @@ from .._settings import check_gaps
 from .._standardization import overflow_cause
 from .recursions import Recursions
 from .singular_basis import SpectralBasis, log_likelihood
-from .spectral_rows import SpectralRows, Standardization
+from .spectral_rows import SpectralRows
+from .weights import Standardization
 
 __all__ = ["SpectralModel", "run"]
 

@@ -33,22 +33,12 @@ from scipy.linalg import blas
 
 from ..._utils import memory
 from ..._utils.threads import map_threads
-from .._standardization import standardization_weights
+from . import tiles
 from .recursions import Recursions, backward
+from .weights import Standardization
 
-__all__ = ["SpectralRows", "Standardization"]
+__all__ = ["SpectralRows"]
 
-#: One tile of an output, a work item of the worker threads: small enough to stay in
-#: cache between the steps that touch it and for both cores to share even small outputs.
-BLOCK_BYTES = 4 * 2**20
-#: Rows of a tile on long recordings (more than BLOCK_BYTES / (8 MIN_BLOCK_COLUMNS)
-#: steps), which are cut into tiles of steps too: products at least this wide.
-MIN_BLOCK_COLUMNS = 64
-#: Rows of a tile of a time-major output (held in memory): each step of a tile is a
-#: contiguous 32 KiB run, where a source-major tile's row width (BLOCK_BYTES over the
-#: steps, 524 rows at 1000 steps) cuts every step into 4 KiB pieces a page apart; at the
-#: paper's scale z with kept weights takes 0.025 s in place of 0.035 (validation/bench).
-TIME_MAJOR_COLUMNS = 4096
 #: :meth:`skf_ref.Reconstruction.blocks` computes streamed ``"rts-standardized"`` outputs
 #: narrower than SMOOTH_COLUMNS several blocks at a time, up to that width or
 #: SMOOTH_BYTES: the backward pass over the steps before the steady state costs one
@@ -60,113 +50,8 @@ SMOOTH_BYTES = 64 * 2**20
 #: scale, 9501 columns, two parts take 0.016 s where eight took 0.024), and in at most 8,
 #: so that a core another process keeps busy hands its share to the other.
 SMOOTH_PART_COLUMNS = 4096
-#: The "rts-standardized" correction sums zeta over groups of this many rows, in tiles of
-#: this many steps (one work item of the worker threads each): the same bits whatever the
-#: number of threads.
-PROJECTION_COLUMNS = 8192
-PROJECTION_STEPS = 8192
-#: The standardization weights of the steps before the steady state are kept, for every
-#: exponent applied to a second data set, when they take at most this much: a model
-#: applied to many data sets then pays for them once.
-CACHE_BYTES = 256 * 2**20
-
 
 _Array = NDArray[np.float64]
-
-
-class Standardization:
-    """``W_t^(alpha)`` of one model and exponent, for any rows and steps: no data needed.
-
-    Parameters
-    ----------
-    V : ndarray, shape (n_sources, r)
-    omega : ndarray, shape (n_stored, r)
-        ``s^2 p_{t|t-1} / (s^2 p_{t|t-1} + 1)`` (:class:`~.recursions.Recursions`): the
-        raw weights are ``(V o V) omega_t``; the last row holds from step ``steady`` on.
-    steady : int
-        First step of the steady state (``n_times``: none).
-    n_times : int
-    exponent : float
-    """
-
-    def __init__(
-        self, V: _Array, omega: _Array, steady: int, n_times: int, exponent: float
-    ) -> None:
-        self.V, self.omega, self.exponent = V, omega, exponent
-        self.steady, self.n_times = steady, n_times
-        # what the tiles share, computed once (prepare, projector)
-        self._scale: Any = None
-        self._cache: Any = None
-        self._projector: Any = None
-        self.applications = 0  # data sets this standardization served (SpectralRows)
-
-    @property
-    def held(self) -> bool:
-        """bool : Whether the recording reaches the steady state."""
-        return self.steady < self.n_times
-
-    @property
-    def kept(self) -> bool:
-        """bool : Whether the weights of the steps before ``steady`` are kept
-        (:data:`CACHE_BYTES`)."""
-        return self._cache is not None
-
-    def prepare(self) -> None:
-        """Compute what the tiles share, in the calling thread (the workers only read it)."""
-        if self.held and self._scale is None:
-            # W^(alpha) = Diag((V o V) omega)^(-alpha), one number a row  §2.2 (7)
-            raw = np.empty(len(self.V))
-            for rows in _slices(0, len(self.V), PROJECTION_COLUMNS):
-                np.matmul(np.square(self.V[rows]), self.omega[-1], out=raw[rows])
-            self._scale = standardization_weights(raw, self.exponent, out=raw)
-        n, S = len(self.V), self.steady
-        if self._cache is None and self.applications > 1 and 0 < 8 * n * S <= CACHE_BYTES:
-            cache = np.empty((S, n))  # time-major, as the outputs held in memory
-
-            def fill(item: tuple[slice, slice]) -> None:  # the tiles of a time-major output
-                rows, times = item
-                self.transient(rows, times, cache[times, rows].T)
-
-            for _ in map_threads(fill, _tiles(0, n, S, cache.T)):
-                pass
-            self._cache = cache
-
-    def transient(self, rows: slice, times: slice, out: _Array | None = None) -> _Array:
-        """The weights of ``rows`` at ``times`` (steps before ``steady``): (n_rows, n_steps).
-
-        Parameters
-        ----------
-        rows, times : slice
-        out : ndarray, shape (n_rows, n_steps), optional
-            Where to write them (default a new array).
-
-        Returns
-        -------
-        ndarray
-            A view of the kept weights, or ``out`` filled.
-        """
-        if self._cache is not None:
-            return self._cache[times, rows].T
-        # w_t = (V o V) omega_t                                          §2.2 (7)
-        w = np.matmul(np.square(self.V[rows]), self.omega[times].T, out=out)
-        return standardization_weights(w, self.exponent, out=w)
-
-    def scale(self, rows: slice) -> _Array:
-        """The held weights of ``rows``, (n_rows, 1): ``W^(alpha)`` from ``steady`` on."""
-        return self._scale[rows, None]
-
-    def raw(self, rows: slice, times: slice) -> _Array:
-        """Raw weights ``w_t`` of ``rows`` at any steps, (n_rows, n_steps), for a diagnosis."""
-        first, stop, _ = times.indices(self.n_times)
-        index = np.minimum(np.arange(first, stop), len(self.omega) - 1)
-        return (self.V[rows] ** 2) @ self.omega[index].T
-
-    def projector(self) -> _Array:
-        """``V^T D V`` (r, r): ``zeta_t = V^T z_t`` from ``u_t`` in the steady state."""
-        if self._projector is None:
-            self.prepare()
-            self._projector = (self.V * self._scale[:, None]).T @ self.V
-        return self._projector
 
 
 class SpectralRows:
@@ -228,14 +113,14 @@ class SpectralRows:
         self, name: str, rows: int | None = None
     ) -> Iterator[tuple[slice, NDArray[np.float64]]]:
         """Output ``name`` block of ``rows`` rows by block (default about
-        :data:`BLOCK_BYTES` each), (n_rows, n_times) C-ordered.
+        ``BLOCK_BYTES`` each), (n_rows, n_times) C-ordered.
 
         The paper's smoother's backward pass costs a vector operation a step per block
         computed, so on long recordings narrow blocks are computed several at a time (up to
         :data:`SMOOTH_COLUMNS` rows or :data:`SMOOTH_BYTES`): one group in memory at once.
         """
         n, T = self.n_sources, self.n_times
-        step = max(1, BLOCK_BYTES // (8 * T)) if rows is None else rows
+        step = tiles.row_count(T) if rows is None else rows
         width = min(SMOOTH_COLUMNS, SMOOTH_BYTES // (8 * T))
         smoothed = name == "z" and self.smoother == "rts-standardized"
         group = step * max(1, width // step) if smoothed else step
@@ -269,7 +154,7 @@ class SpectralRows:
         steps = slice(0, min(self.steady + 1, self.n_times))
         return min(
             float(np.nanmin(self.standardization.raw(rows, steps)))
-            for rows in _slices(0, self.n_sources, max(1, BLOCK_BYTES // (8 * steps.stop)))
+            for rows in tiles.slices(0, self.n_sources, tiles.row_count(steps.stop))
         )
 
     def _needs_correction(self, name: str) -> bool:
@@ -323,7 +208,7 @@ class SpectralRows:
             rows, times = item
             self._tile(name, rows, times, target[rows.start - first : rows.stop - first, times])
 
-        for _ in map_threads(tile, _tiles(first, stop, self.n_times, target)):
+        for _ in map_threads(tile, tiles.tiles(first, stop, self.n_times, target)):
             pass
 
     def _tile(self, name: str, rows: slice, times: slice, out: _Array) -> _Array:
@@ -332,7 +217,7 @@ class SpectralRows:
             return np.matmul(self.V[rows], self.xi[times].T, out=out)
         if name == "x":
             return np.matmul(self.V[rows], self.xi_smoothed[times].T, out=out)
-        transient, held = _split(times, self.steady)
+        transient, held = tiles.split(times, self.steady)
         if name == "weights":
             if transient:
                 part = out[:, : transient.stop - transient.start]
@@ -347,7 +232,7 @@ class SpectralRows:
 
     def _standardized(self, u: _Array, rows: slice, times: slice, out: _Array) -> _Array:
         """``z_t = W_t^(alpha) V u_t`` of ``rows`` at ``times`` into ``out``.  §2.2 (6)-(7)"""
-        transient, held = _split(times, self.steady)
+        transient, held = tiles.split(times, self.steady)
         V = self.V[rows]
         if transient:
             part = out[:, : transient.stop - transient.start]
@@ -384,7 +269,7 @@ class SpectralRows:
     def _corrected(self, rows: slice, times: slice, out: _Array, correction: _Array) -> _Array:
         """``s = h + V delta`` of ``rows`` at ``times``: ``out`` holds ``h`` before steady;
         from ``steady`` on ``s_t = [D V, V] [eta_t; delta_t]``, one product."""
-        transient, held = _split(times, self.steady)
+        transient, held = tiles.split(times, self.steady)
         V = self.V[rows]
         r = V.shape[1]
         if transient:
@@ -406,7 +291,7 @@ class SpectralRows:
             if S:
                 self._smooth_transient(where.T, rows, eta)
 
-        for _ in map_threads(rows_of, _row_blocks(first, stop, S + 1)):
+        for _ in map_threads(rows_of, tiles.row_blocks(first, stop, S + 1)):
             pass
         self._correct(first, stop, target, correction)
 
@@ -419,7 +304,7 @@ class SpectralRows:
             where = target[rows.start - first : rows.stop - first, times]
             self._corrected(rows, times, where, correction)
 
-        for _ in map_threads(tile, _tiles(first, stop, self.n_times, target)):
+        for _ in map_threads(tile, tiles.tiles(first, stop, self.n_times, target)):
             pass
 
     def projection(self, columns: slice, times: slice | None = None) -> _Array:
@@ -432,7 +317,7 @@ class SpectralRows:
         first, stop, _ = (slice(0, self.steady) if times is None else times).indices(self.n_times)
         self.standardization.prepare()
         share = np.zeros((stop - first, self.V.shape[1]))
-        for steps, rows in _tiles_by_steps(*columns.indices(self.n_sources)[:2], first, stop):
+        for steps, rows in tiles.tiles_by_steps(*columns.indices(self.n_sources)[:2], first, stop):
             shape = (rows.stop - rows.start, steps.stop - steps.start)
             z = self._standardized(self.u, rows, steps, np.empty(shape))
             share[steps.start - first : steps.stop - first] += z.T @ self.V[rows]
@@ -452,8 +337,8 @@ class SpectralRows:
             zeta = np.zeros((S, self.V.shape[1]))
             items = [
                 (rows, steps)
-                for steps in _slices(0, S, PROJECTION_STEPS)
-                for rows in _slices(0, self.n_sources, PROJECTION_COLUMNS)
+                for steps in tiles.slices(0, S, tiles.PROJECTION_STEPS)
+                for rows in tiles.slices(0, self.n_sources, tiles.PROJECTION_COLUMNS)
             ]
             shares = map_threads(lambda item: self.projection(*item), items)
             for (_, steps), share in zip(items, shares, strict=True):
@@ -523,66 +408,23 @@ class SpectralRows:
         eta = self._steady_means() if S < T else None
         zeta = np.zeros((S, self.V.shape[1]))
         if S:
-            tiles = _tiles(0, n, S, result.T)
+            items = tiles.tiles(0, n, S, result.T)
 
             def transient(item: tuple[slice, slice]) -> _Array:  # z_{t|t}, its share of zeta
                 rows, times = item
                 z = self._standardized(self.u, rows, times, result[times, rows].T)
                 return z.T @ self.V[rows]
 
-            for (_, times), share in zip(tiles, map_threads(transient, tiles), strict=True):
+            for (_, times), share in zip(items, map_threads(transient, items), strict=True):
                 zeta[times] += share  # in tile order, whatever the number of threads
             n_parts = min(8, max(1, n // SMOOTH_PART_COLUMNS))
-            parts = list(_slices(0, n, -(-n // n_parts)))
+            parts = list(tiles.slices(0, n, -(-n // n_parts)))
             for _ in map_threads(lambda p: self._smooth_transient(result[:, p], p, eta), parts):
                 pass
         self._delta = self.correction_from(zeta, eta)
         eta = None  # copied into the correction
         self._correct(0, n, result.T, self._delta)
         return result
-
-
-def _split(times: slice, steady: int) -> tuple[slice | None, slice | None]:
-    """``times`` cut at ``steady``: the steps before it and from it on (None when empty)."""
-    first, stop = times.start, times.stop
-    cut = min(max(steady, first), stop)
-    return (slice(first, cut) if cut > first else None), (slice(cut, stop) if stop > cut else None)
-
-
-def _slices(first: int, stop: int, step: int) -> Iterator[slice]:
-    """Consecutive slices of ``first:stop``, ``step`` long (the last may be shorter)."""
-    for start in range(first, stop, step):
-        yield slice(start, min(start + step, stop))
-
-
-def _row_blocks(first: int, stop: int, n_steps: int) -> list[slice]:
-    """Row blocks of ``first:stop`` of about :data:`BLOCK_BYTES` at ``n_steps`` steps."""
-    return list(_slices(first, stop, max(1, BLOCK_BYTES // (8 * n_steps))))
-
-
-def _tiles(
-    first: int, stop: int, n_times: int, target: _Array | None = None
-) -> list[tuple[slice, slice]]:
-    """(rows, steps) tiles of rows ``first:stop`` x all steps, about BLOCK_BYTES each:
-    whole rows when they fit MIN_BLOCK_COLUMNS at a time, else cut in steps too. In a
-    time-major ``target`` (the transpose of an (n_times, n) array) a tile is
-    TIME_MAJOR_COLUMNS rows wide: each of its steps is one contiguous run of memory."""
-    rows = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * n_times))
-    if target is not None and target.strides[0] < target.strides[1]:
-        rows = TIME_MAJOR_COLUMNS
-    steps = max(1, BLOCK_BYTES // (8 * min(rows, max(1, stop - first))))
-    return [(r, t) for r in _slices(first, stop, rows) for t in _slices(0, n_times, steps)]
-
-
-def _tiles_by_steps(
-    first: int, stop: int, step_first: int, step_stop: int
-) -> Iterator[tuple[slice, slice]]:
-    """(steps, rows) tiles of the steps ``step_first:step_stop``, steps outermost."""
-    n = step_stop - step_first
-    width = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * max(1, min(n, 8192))))
-    for steps in _slices(step_first, step_stop, 8192):
-        for rows in _slices(first, stop, width):
-            yield steps, rows
 
 
 def _add_product(out: _Array, V_rows: _Array, delta: _Array) -> _Array:
