@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from skf_ref import InputError, InputTypeError, apply_skf, make_skf_operator, reconstruct
+from skf_ref.io import make_stc
 
 # Two computations of the same whitened model (MNE's whitener and an eigendecomposition
 # here, or a projection and a whitening) differ by rounding amplified by cond(S) < 1e4.
@@ -231,16 +232,19 @@ def test_no_common_channel_and_nan(problem):
 def test_to_stc_from_arrays(mne_setup, problem):
     setup, evoked, cov = problem
     stc, rec = apply_skf(evoked, setup["forward"], cov, return_reconstruction=True)
-    again = rec.to_stc(setup["forward"]["src"], evoked.times[0], 1e-3)
+    again = make_stc(rec, setup["forward"]["src"], evoked.times[0], 1e-3)
     np.testing.assert_array_equal(again.data, stc.data)
-    vector = rec.to_stc(setup["forward"]["src"], evoked.times[0], 1e-3, pick_ori="vector")
+    vector = make_stc(rec, setup["forward"]["src"], evoked.times[0], 1e-3, pick_ori="vector")
     np.testing.assert_allclose(np.linalg.norm(vector.data, axis=1), stc.data, rtol=1e-12)
     fixed = reconstruct(np.eye(4, 1254) + 1, np.ones((4, 2)), noise_std=1, theta0=1, q=1)
     with pytest.raises(InputError, match="pick_ori='vector' needs free orientation"):
-        fixed.to_stc(setup["forward"]["src"], 0.0, 1e-3, pick_ori="vector")
+        make_stc(fixed, setup["forward"]["src"], 0.0, 1e-3, pick_ori="vector")
     with pytest.raises(InputError, match="pick_ori must be one of"):
-        rec.to_stc(setup["forward"]["src"], 0.0, 1e-3, pick_ori="normal")
+        make_stc(rec, setup["forward"]["src"], 0.0, 1e-3, pick_ori="normal")
     with pytest.raises(InputError, match="has 1254 positions, so it needs 1254"):
-        reconstruct(np.eye(4, 10) + 1, np.ones((4, 2)), noise_std=1, theta0=1, q=1).to_stc(
-            setup["forward"]["src"], 0.0, 1e-3
+        make_stc(
+            reconstruct(np.eye(4, 10) + 1, np.ones((4, 2)), noise_std=1, theta0=1, q=1),
+            setup["forward"]["src"],
+            0.0,
+            1e-3,
         )

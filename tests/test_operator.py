@@ -20,7 +20,7 @@ from skf_ref import (
     apply_skf_raw,
     make_skf_operator,
 )
-from skf_ref.method.paths import singular_basis, spectral
+from skf_ref.method._paths import singular_basis, spectral
 
 SETTINGS = dict(exponent=1.25, smoother="rts-standardized")
 # Blocks of rows and whole arrays compute the same products in another order (the

@@ -4,7 +4,7 @@ import re
 from pathlib import Path
 
 from .._utils.checks import InputError
-from ..method.settings import RECOMMENDED_SETTING
+from ..method import RECOMMENDED_SETTING
 from ..study.sizes import DEFAULT_POSITIONS, SCENARIO_MIN_POSITIONS
 from ._args import add_skf_options, db, integer
 

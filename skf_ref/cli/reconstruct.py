@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from .._utils.checks import InputError
-from ..method.settings import RECOMMENDED_SETTING
+from ..method import RECOMMENDED_SETTING
 from ._args import add_skf_options, positive, report_tuning
 
 __all__ = ["add_parser", "run"]
@@ -262,8 +262,8 @@ def _mne_route(args):
 def _array_route(args):
 
     from ..io.files import read_data, read_leadfield
-    from ..method.reconstruct import reconstruct
-    from ..method.tuning import choose_priors
+    from ..method import reconstruct
+    from ..method._tuning import choose_priors
 
     leadfield = read_leadfield(args.leadfield, key=args.key)
     recording = read_data(args.data, key=args.key, condition=args.condition)

@@ -10,10 +10,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..method.outputs import OUTPUTS
-from ..method.priors import priors_from_snr
-from ..method.reconstruct import reconstruct
-from ..method.result import readonly
+from ..method import priors_from_snr, reconstruct
+from ..method._outputs import OUTPUTS
+from ..method._result import readonly
 from ..version import __version__
 
 __all__ = [

@@ -17,7 +17,8 @@
 - :mod:`.zarr_dask`: outputs larger than memory, streamed to zarr or computed on Dask.
 
 MNE-Python, zarr and Dask are optional (the extras ``mne``, ``zarr``, ``dask``): they load
-when a function needs them. The names below load on first use.
+when a function needs them. The names below (``__all__``) are the public API and load on
+first use; the modules above are their implementation, whose paths may change.
 """
 
 import importlib

@@ -24,8 +24,8 @@ depend on the data, done once (:func:`make_skf_operator`):
    operator is applied (:meth:`skf_ref.SKFOperator.reconstruct`), as MNE's
    ``prepare_inverse_operator`` does.
 4. **The SKF's model.** The thin SVD of the whitened lead field
-   (:class:`skf_ref.method.paths.singular_basis.SpectralBasis`) once, and for each number
-   of samples the covariance recursion (:class:`skf_ref.method.paths.spectral.SpectralModel`
+   (:class:`skf_ref.method.SpectralBasis`) once, and for each number
+   of samples the covariance recursion (:class:`skf_ref.method.SpectralModel`
    with that basis), kept for the next data set of that length. The priors come from
    PM-SNR and EP-SNR on the whitened lead field (docs/model.md §4): ``q`` depends on the
    number of samples; ``"auto"`` or a search range on the data (chosen again for each

@@ -29,13 +29,17 @@ from .._utils.checks import (
     describe,
 )
 from .._utils.precision import zero_tolerance
-from ..method.model import StateSpaceModel
-from ..method.paths.singular_basis import SpectralBasis
-from ..method.paths.spectral import SpectralModel
-from ..method.priors import priors_from_snr
-from ..method.reconstruct import METHODS, check_smoother, reconstruct
-from ..method.result import Reconstruction
-from ..method.tuning import choose_priors
+from ..method import (
+    Reconstruction,
+    SpectralBasis,
+    SpectralModel,
+    StateSpaceModel,
+    priors_from_snr,
+    reconstruct,
+)
+from ..method._model import missing_steps
+from ..method._settings import check_gaps, check_settings
+from ..method._tuning import choose_priors
 from .channels import (
     check_average_referenced,
     check_channel_types,
@@ -321,7 +325,8 @@ class SKFOperator:
         Parameters
         ----------
         data : array_like, shape (len(ch_names), n_times)
-            In the data's units, as :meth:`select` returns them; whitened here.
+            In the data's units, as :meth:`select` returns them; whitened here. A column of
+            NaN is a missing step (a bad segment; docs/model.md §2).
         nave : float
             The number of trials averaged (``evoked.nave``; 1 for epochs and raw
             recordings): the data are whitened with the noise covariance divided by it.
@@ -339,10 +344,11 @@ class SKFOperator:
             the log-likelihood and the priors do not depend on ``nave``; ``x`` is the state
             of the data scaled by ``sqrt(nave)`` (below).
         """
-        data = check_array("data", data, (len(self.ch_names), "n_times"))
-        exponent = check_real("exponent", exponent, nonnegative=True)
-        smoother = check_smoother(smoother)
-        check_choice("method", method, METHODS)
+        data = check_array("data", data, (len(self.ch_names), "n_times"), finite=False)
+        missing = missing_steps(data, "data")  # columns of NaN: bad segments
+        settings = check_settings(exponent, smoother, method)
+        check_gaps(settings.smoother, missing)
+        exponent, smoother, method = settings.exponent, settings.smoother, settings.method
         nave = check_real("nave", nave, positive=True)
         # An average of nave trials has noise covariance C / nave: its whitener is
         # sqrt(nave) W, and its whitened lead field sqrt(nave) W L, whose priors
@@ -351,10 +357,10 @@ class SKFOperator:
         # raw weights w_t (§2.2 eq. (7)) and the same z (eq. (6)), likelihood and "auto"
         # choice. So the whitened data alone are scaled (MNE's prepare_inverse_operator
         # scales noise and source covariance alike, to the same effect).
-        whitened = self.whitener @ np.asarray(data)  # checked above: floats
+        whitened = self.whitener @ data
         if nave != 1:
             whitened *= np.sqrt(nave)
-        if not np.all(np.isfinite(whitened)):
+        if not np.all(np.isfinite(whitened[:, ~missing])):
             raise InputError("the whitened data are not finite: noise_cov is out of range")
         n, T = self.n_sources, whitened.shape[1]
         tuning = None
@@ -369,9 +375,7 @@ class SKFOperator:
                 ep_snr_db=self.ep_snr_db,
             )
         if method in ("auto", "spectral"):  # the operator's SVD (and recursions) again
-            budget = memory.available_memory() / 2 if memory_limit is None else memory_limit
-            needed = memory.spectral_memory(n, self.rank, T)
-            memory.require(needed, f"the SKF on {T} samples of {n} sources", budget)
+            memory.check_reconstruction("spectral", smoother, n, self.rank, T, memory_limit)
             rec = self._model(T, theta0, q).apply(whitened, exponent, smoother, memory_limit)
         else:
             rec = reconstruct(

@@ -1,7 +1,7 @@
 """Outputs beyond memory: streamed to a zarr store, or computed by a Dask cluster.
 
 Every row of every spectral output depends on that row of ``V`` and on r x T quantities only
-(:mod:`skf_ref.method.paths.spectral_rows`), so an output never has to exist whole: :func:`to_zarr`
+(the reconstruction's ``lazy_outputs``), so an output never has to exist whole: :func:`to_zarr`
 writes it block of rows by block, :func:`to_dask` hands the blocks to Dask. Outputs of the other
 paths, held in memory already, are cut into the same blocks. zarr and Dask are optional: ``pip
 install "skf_ref[zarr]"`` or ``"skf_ref[dask]"``.
@@ -21,8 +21,8 @@ import numpy as np
 from .._utils.atomic_files import stale_temporaries, temporary_prefix
 from .._utils.checks import InputError, InputTypeError, check_choice, check_int, describe
 from .._utils.extras import optional
-from ..method.paths.spectral_rows import NAMES
-from ..method.result import amplitude_from_components
+from ..method import amplitude_from_components
+from ..method._outputs import ARRAYS as NAMES
 from .stc import stc_layout
 
 __all__ = [
@@ -172,9 +172,9 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
     """Write outputs to a zarr store (a folder), one block of rows at a time.
 
     No output is held whole: memory is the r x T quantities, the block being computed and
-    at most :data:`WRITE_BEHIND_BYTES` of blocks waiting for the disk. The store is
+    at most ``WRITE_BEHIND_BYTES`` (128 MiB) of blocks waiting for the disk. The store is
     written under a temporary name beside ``path`` and renamed when complete
-    (:func:`new_store`), so an interruption leaves no half-written store.
+    (``new_store``), so an interruption leaves no half-written store.
 
     Parameters
     ----------
@@ -320,19 +320,18 @@ def to_dask(reconstruction, name="z", chunks=None):
 
     check_choice("name", name, NAMES)
     step = _rows_per_block(reconstruction, chunks)
-    rows = reconstruction.spectral_rows
-    if rows is None or reconstruction.computed(name):
+    outputs = reconstruction.lazy_outputs
+    if outputs is None or reconstruction.computed(name):
         return da.from_array(getattr(reconstruction, name), chunks=(step, -1))
     n, T = reconstruction.n_sources, reconstruction.n_times
     slices = [slice(start, min(start + step, n)) for start in range(0, n, step)]
-    state = dask.delayed(rows, name=f"skf-rows-{dask.base.tokenize(id(rows), n, T)}")
-    delta = None
-    if name == "z" and rows.smoother == "rts-standardized":
-        shares = [dask.delayed(_projection)(state, where) for where in slices]
-        delta = dask.delayed(_correction)(state, shares)
+    state = dask.delayed(outputs, name=f"skf-rows-{dask.base.tokenize(id(outputs), n, T)}")
+    # what every block needs of the others (the paper's smoother's correction), as tasks
+    shares = [dask.delayed(_share)(state, name, where) for where in slices]
+    shared = dask.delayed(_combine)(state, name, shares)
     blocks = [
         da.from_delayed(
-            dask.delayed(_block)(state, name, where, delta),
+            dask.delayed(_block)(state, name, where, shared),
             shape=(where.stop - where.start, T),
             dtype=float,
         )
@@ -341,13 +340,13 @@ def to_dask(reconstruction, name="z", chunks=None):
     return da.concatenate(blocks, axis=0)
 
 
-def _projection(rows, where):
-    return rows.projection(where)
+def _share(outputs, name, where):
+    return outputs.share(name, where)
 
 
-def _correction(rows, shares):
-    return rows.correction_from(np.sum(shares, axis=0))
+def _combine(outputs, name, shares):
+    return outputs.combine(name, shares)
 
 
-def _block(rows, name, where, delta):
-    return np.ascontiguousarray(rows.block(name, where, delta=delta).T)
+def _block(outputs, name, where, shared):
+    return outputs.block(name, where, shared)
