@@ -7,7 +7,7 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "skf_ref"
 #: The layers, lowest first: a module may import its own layer and those before it.
-LAYERS = ("_utils", "method", "io", "conformance", "study", "cli")
+LAYERS = ("_utils", "method", "io", "conformance", "datasets", "study", "cli")
 #: The one kind of import that reaches up, and why: the result type's conveniences load the
 #: bridge to MNE objects and files when called (``rec.to_stc(...)``, ``rec.to_zarr(...)``),
 #: as MNE's own objects have ``.plot()``; nothing of the method needs them.
