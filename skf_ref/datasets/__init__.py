@@ -18,34 +18,24 @@ docs/real_data.md is the recipe; validation/report/real/REAL.md what the SKF and
 methods make of these recordings.
 
 MNE-Python (the extra ``mne``), ``spharapy`` and ``pooch`` (the extra ``datasets``) load
-when a function needs them. The names below load on first use.
+when a function needs them.
 """
 
-import importlib
+from .covariance import baseline_noise_cov
+from .fecnn import FECNN_SUBJECTS, load_fecnn_evoked, load_fecnn_forward
+from .forward import forward_from_leadfield, sphere_forward
+from .paths import DATA_ENV, FECNN_FILES, data_path
+from .sep256 import load_sep256_evoked
 
-_HOMES = {
-    "DATA_ENV": "paths",
-    "FECNN_FILES": "paths",
-    "data_path": "paths",
-    "FECNN_SUBJECTS": "fecnn",
-    "load_fecnn_evoked": "fecnn",
-    "load_fecnn_forward": "fecnn",
-    "load_sep256_evoked": "sep256",
-    "baseline_noise_cov": "covariance",
-    "forward_from_leadfield": "forward",
-    "sphere_forward": "forward",
-}
-
-__all__ = list(_HOMES)
-
-
-def __getattr__(name):
-    if name not in _HOMES:
-        raise AttributeError(f"module 'skf_ref.datasets' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{_HOMES[name]}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted({*globals(), *_HOMES})
+__all__ = [
+    "DATA_ENV",
+    "FECNN_FILES",
+    "FECNN_SUBJECTS",
+    "baseline_noise_cov",
+    "data_path",
+    "forward_from_leadfield",
+    "load_fecnn_evoked",
+    "load_fecnn_forward",
+    "load_sep256_evoked",
+    "sphere_forward",
+]
