@@ -21,16 +21,22 @@ from __future__ import annotations
 
 import copy
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .._utils.checks import InputError, InputTypeError, check_real, describe
 from .._utils.extras import optional
 
+if TYPE_CHECKING:
+    import mne
+
 __all__ = ["baseline_noise_cov"]
 
 
-def baseline_noise_cov(evoked, tmin: float | None = None, tmax: float = 0.0, *, reg: float = 0.1):
+def baseline_noise_cov(
+    evoked: mne.Evoked, tmin: float | None = None, tmax: float = 0.0, *, reg: float = 0.1
+) -> mne.Covariance:
     """The noise covariance of one trial, from an average's pre-stimulus samples.
 
     Parameters

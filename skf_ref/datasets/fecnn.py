@@ -37,6 +37,7 @@ found or downloaded by :func:`skf_ref.datasets.data_path`:
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -44,6 +45,9 @@ from .._utils.checks import InputError, check_choice
 from .._utils.extras import optional
 from .forward import forward_from_leadfield
 from .paths import fecnn_file
+
+if TYPE_CHECKING:
+    import mne
 
 __all__ = [
     "FECNN_SUBJECTS",
@@ -94,7 +98,7 @@ def _nave(cfg) -> int:
     """Trials averaged: those defined (``trl``) less those ``ft_rejectvisual`` rejected."""
     defined, rejected = None, 0
     while isinstance(cfg, dict):
-        if np.ndim(cfg.get("trl")) == 2:
+        if "trl" in cfg and np.ndim(cfg["trl"]) == 2:
             defined = len(cfg["trl"])
         artifacts = cfg.get("artfctdef", {})
         for kind in artifacts.values() if isinstance(artifacts, dict) else ():
@@ -144,7 +148,9 @@ def _positions(subject, structure, path):
     return labels, _ctf_to_mne(np.asarray(elec["chanpos"])[index])
 
 
-def load_fecnn_evoked(subject: str = "A0206", path=None):
+def load_fecnn_evoked(
+    subject: str = "A0206", path: str | os.PathLike | None = None
+) -> mne.EvokedArray:
     """One subject's average, as an ``mne.EvokedArray`` with its electrodes.
 
     Parameters
@@ -168,7 +174,8 @@ def load_fecnn_evoked(subject: str = "A0206", path=None):
     structure = pymatreader.read_mat(str(file), variable_names=["EEG_avg"])["EEG_avg"]
     if not np.allclose(np.diff(structure["time"]), 1 / SFREQ, rtol=1e-6):
         raise InputError(f"{file}: not sampled at {SFREQ:g} Hz")
-    info = _info(*_positions(subject, structure, path), SFREQ, subject)
+    labels, positions = _positions(subject, structure, path)
+    info = _info(labels, positions, SFREQ, subject)
     read = mne.read_evoked_fieldtrip(file, info, comment=subject, data_name="EEG_avg")
     if read.ch_names != info.ch_names:
         raise InputError(f"{file}: MNE's reader kept {len(read.ch_names)} channels")
@@ -186,7 +193,7 @@ def load_fecnn_evoked(subject: str = "A0206", path=None):
     return evoked
 
 
-def load_fecnn_forward(path=None):
+def load_fecnn_forward(path: str | os.PathLike | None = None) -> mne.Forward:
     """A0206's FEM lead field as a fixed-orientation ``mne.Forward``.
 
     Parameters

@@ -20,10 +20,16 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._utils.checks import InputError, InputTypeError, check_array, check_real, describe
 from .._utils.extras import optional
+
+if TYPE_CHECKING:
+    import mne
 
 __all__ = ["forward_from_leadfield", "sphere_forward"]
 
@@ -45,7 +51,9 @@ def _check_geometry(leadfield, positions, orientations, n_channels):
     return L, rr, nn / norms[:, None]
 
 
-def forward_from_leadfield(info, leadfield, positions, orientations):
+def forward_from_leadfield(
+    info: mne.Info, leadfield: ArrayLike, positions: ArrayLike, orientations: ArrayLike
+) -> mne.Forward:
     """A fixed-orientation ``mne.Forward`` from a lead field computed elsewhere.
 
     Parameters
@@ -114,7 +122,9 @@ def forward_from_leadfield(info, leadfield, positions, orientations):
     return fwd
 
 
-def sphere_forward(info, *, spacing_mm: float = 10.0, mindist_mm: float = 5.0):
+def sphere_forward(
+    info: mne.Info, *, spacing_mm: float = 10.0, mindist_mm: float = 5.0
+) -> tuple[mne.Forward, mne.bem.ConductorModel]:
     """A three-shell sphere fitted to the electrodes and a volume grid inside it.
 
     Parameters

@@ -21,9 +21,14 @@ sphere fitted to the cap (:func:`skf_ref.datasets.sphere_forward`) is the head m
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .._utils.extras import optional
+
+if TYPE_CHECKING:
+    import mne
 
 __all__ = ["NAVE", "SFREQ", "TMIN", "load_sep256_evoked"]
 
@@ -38,7 +43,9 @@ def _mne_axes(positions_mm: np.ndarray) -> np.ndarray:
     return np.column_stack([-y, x, z]) * _MM
 
 
-def load_sep256_evoked(*, baseline: tuple | None = (None, 0.0)):
+def load_sep256_evoked(
+    *, baseline: tuple[float | None, float | None] | None = (None, 0.0)
+) -> mne.EvokedArray:
     """The 256-channel SEP as an ``mne.EvokedArray`` with its electrode positions.
 
     Parameters
