@@ -94,8 +94,7 @@ def write_report(out, recordings, missing, table, checks, run):
         "",
         _recordings_table(recordings),
         "",
-        missing and f"A0206 is absent: {missing}" or "",
-        "",
+        *([f"A0206 is absent: {missing}", ""] if missing else []),
         "The N20 at the sensors of the three feCNN subjects (the CP3 minimum in 15-30 ms):",
         "",
         _sensor_table(checks),
@@ -183,7 +182,7 @@ def write_outputs(out, recordings, missing, table, courses, checks, run):
             ("time_courses", figures.time_courses(r, table, courses)),
         ):
             with atomic_path(out / f"{name}_{r.name}.png") as path:
-                figure.savefig(path, dpi=110)
+                figure.savefig(path, dpi=90)
     write_report(out, recordings, missing, table, checks, run)
 
 

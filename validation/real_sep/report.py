@@ -114,21 +114,28 @@ def summary(rows):
     )
 
 
+def _best_named(rows):
+    """The best row, and the names of every setting tied with it."""
+    best = _best(rows)
+    tied = rows[[_versus(r, best) == "as good as" for _, r in rows.iterrows()]]
+    return best, "; ".join(tied["setting"])
+
+
 def verdict(table):
     """The SKF's best against MNE's best on each recording, and the sentence it leads to."""
     lines, outcomes = [], []
     for name, rows in table.groupby("recording", sort=False):
-        skf = _best(rows[rows["family"] == "skf"])
-        mne = _best(rows[rows["family"] != "skf"])
-        skf_data = _best(rows[(rows["family"] == "skf") & (rows["priors"] == "data")])
-        mne_data = _best(rows[(rows["family"] != "skf") & (rows["priors"] == "data")])
-        outcomes += [_versus(skf, mne), _versus(skf_data, mne_data)]
-        lines.append(
-            f"- {name}: the SKF's best setting, {skf['setting']} ({_brief(skf)}), is "
-            f"{_versus(skf, mne)} MNE's best, {mne['setting']} ({_brief(mne)}); with priors "
-            f"chosen by the data only, {skf_data['setting']} ({_brief(skf_data)}) is "
-            f"{_versus(skf_data, mne_data)} {mne_data['setting']} ({_brief(mne_data)})."
-        )
+        for label, subset in (
+            ("every prior", rows),
+            ("priors chosen by the data", rows[rows["priors"] == "data"]),
+        ):
+            skf, skf_names = _best_named(subset[subset["family"] == "skf"])
+            mne, mne_names = _best_named(subset[subset["family"] != "skf"])
+            outcomes.append(_versus(skf, mne))
+            lines.append(
+                f"- {name}, {label}: the SKF's best ({_brief(skf)}: {skf_names}) is "
+                f"{_versus(skf, mne)} MNE's best ({_brief(mne)}: {mne_names})."
+            )
     if all(outcome != "better than" for outcome in outcomes):
         lines.append(
             "\n**On these recordings the SKF did no better than MNE-Python's methods**, at "
