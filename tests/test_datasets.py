@@ -41,8 +41,13 @@ def folder():
 
 
 @pytest.fixture(scope="module")
-def a0206(folder):
-    return fecnn.load_fecnn_evoked("A0206", folder)
+def averages(folder):
+    return {subject: fecnn.load_fecnn_evoked(subject, folder) for subject in fecnn.FECNN_SUBJECTS}
+
+
+@pytest.fixture(scope="module")
+def a0206(averages):
+    return averages["A0206"]
 
 
 @pytest.fixture(scope="module")
@@ -145,8 +150,8 @@ def test_a_download_fetches_every_pinned_file_from_the_pinned_commit(tmp_path, m
 
 
 @pytest.mark.parametrize(("subject", "n_channels"), [("A0206", 73), ("A1974", 71), ("A1999", 73)])
-def test_averages_shapes_times_units_and_nave(folder, subject, n_channels):
-    evoked = fecnn.load_fecnn_evoked(subject, folder)
+def test_averages_shapes_times_units_and_nave(averages, subject, n_channels):
+    evoked = averages[subject]
     assert evoked.data.shape == (n_channels, 360)
     assert evoked.info["sfreq"] == 1200.0 and evoked.comment == subject
     np.testing.assert_allclose(evoked.times[[0, -1]], [-0.1, 0.199 + 1 / 6000], atol=1e-9)
@@ -159,8 +164,8 @@ def test_averages_shapes_times_units_and_nave(folder, subject, n_channels):
 
 
 @pytest.mark.parametrize("subject", ["A0206", "A1974", "A1999"])
-def test_the_montage_has_mne_s_axes(folder, subject):
-    evoked = fecnn.load_fecnn_evoked(subject, folder)
+def test_the_montage_has_mne_s_axes(averages, subject):
+    evoked = averages[subject]
     at = {ch["ch_name"]: ch["loc"][:3] for ch in evoked.info["chs"]}
     assert at["C3"][0] < at["Cz"][0] < at["C4"][0]  # x to the right
     assert at["Pz"][1] < at["Cz"][1] < at["Fz"][1]  # y to the front
@@ -168,10 +173,10 @@ def test_the_montage_has_mne_s_axes(folder, subject):
 
 
 @pytest.mark.parametrize("subject", ["A0206", "A1974", "A1999"])
-def test_the_n20_is_negative_at_cp3_and_positive_at_fz(folder, subject):
+def test_the_n20_is_negative_at_cp3_and_positive_at_fz(averages, subject):
     # a sanity check of the loader (times, units, sign, channel labels), not of any method:
     # right median nerve, the N20/P20 field of a tangential dipole in left area 3b
-    evoked = fecnn.load_fecnn_evoked(subject, folder)
+    evoked = averages[subject]
     window = (evoked.times > 0.015) & (evoked.times < 0.030)
     cp3, fz = (evoked.ch_names.index(name) for name in ("CP3", "Fz"))
     at = np.flatnonzero(window)[np.argmin(evoked.data[cp3, window])]
@@ -282,8 +287,8 @@ def test_eloreta_and_lcmv_accept_the_forward(a0206, forward):
     inverse = make_inverse_operator(a0206.info, forward, cov, loose=0.0, depth=None, verbose=False)
     stc = apply_inverse(a0206, inverse, 1 / 9, "eLORETA", verbose=False)
     assert np.all(np.isfinite(stc.data))
-    epochs = mne.EpochsArray(a0206.data[None], a0206.info, tmin=a0206.tmin, verbose=False)
-    data_cov = mne.compute_covariance(epochs, tmin=0.0, verbose=False)
+    # the data covariance of the average after the stimulus (LCMV's), as the analysis makes it
+    data_cov = skf_ref.datasets.baseline_noise_cov(a0206, 0.0, a0206.times[-1], reg=0.0)
     filters = mne.beamformer.make_lcmv(
         a0206.info, forward, data_cov, noise_cov=cov, reg=0.05, verbose=False
     )
