@@ -104,6 +104,18 @@ PUBLIC_API = {
         "verify",
         "write_case",
     },
+    "skf_ref.datasets": {
+        "DATA_ENV",
+        "FECNN_FILES",
+        "FECNN_SUBJECTS",
+        "baseline_noise_cov",
+        "data_path",
+        "forward_from_leadfield",
+        "load_fecnn_evoked",
+        "load_fecnn_forward",
+        "load_sep256_evoked",
+        "sphere_forward",
+    },
     "skf_ref.study": set(),
     "skf_ref.study.baselines": {
         "MINIMUM_NORM_METHODS",
