@@ -54,6 +54,7 @@ _HOMES = {
     "make_skf_operator": "io.operator",
     "SKFOperator": "io.operator",
     "compare": "conformance.compare",
+    "sys_info": "_utils.sys_info",
 }
 
 __all__ = [*_HOMES, "__version__"]

@@ -29,7 +29,7 @@ def build_parser():
     argparse.ArgumentParser
     """
     from ..version import __version__
-    from . import compare, conformance, demo, reconstruct, sweep
+    from . import compare, conformance, demo, reconstruct, sweep, sys_info
     from ._args import Parser
 
     parser = Parser(
@@ -48,6 +48,7 @@ def build_parser():
     sweep.add_parser(subparsers)
     conformance.add_parser(subparsers)
     compare.add_parser(subparsers)
+    sys_info.add_parser(subparsers)
     return parser
 
 
