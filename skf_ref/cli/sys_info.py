@@ -1,17 +1,21 @@
 """``skf-ref sys-info``: the machine, Python, the dependencies and the BLAS, for a bug report."""
 
+from __future__ import annotations
+
 import argparse
+
+from ._args import Parser
 
 __all__ = ["add_parser", "run"]
 
 
-def add_parser(subparsers: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+def add_parser(subparsers: argparse._SubParsersAction[Parser]) -> None:
     """Add ``sys-info`` to the ``skf-ref`` subcommands.
 
     Parameters
     ----------
     subparsers : argparse._SubParsersAction
-        What ``ArgumentParser.add_subparsers`` returned.
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
     """
     parser = subparsers.add_parser(
         "sys-info",
