@@ -11,7 +11,6 @@ import pytest
 
 from validation import bench, problem
 
-
 # 50 positions: the filterpy and dense paths' (n, n) covariances stay small (a fast test)
 TINY = (150, 32, 4)
 

@@ -273,10 +273,14 @@ def p20n20_scenario(
 
     Parameters
     ----------
-    deep_position_mm, superficial_position_mm : array_like, shape (3,)
-        The sources' positions in mm, in ``frame``.
-    deep_orientation, superficial_orientation : array_like, shape (3,)
-        Their orientations in ``frame``, nonzero (normalized when placed).
+    deep_position_mm : array_like, shape (3,)
+        The deep source's position in mm, in ``frame``.
+    deep_orientation : array_like, shape (3,)
+        Its orientation in ``frame``, nonzero (normalized when placed).
+    superficial_position_mm : array_like, shape (3,)
+        The superficial source's position in mm, in ``frame``.
+    superficial_orientation : array_like, shape (3,)
+        Its orientation in ``frame``, nonzero (made tangential and normalized when placed).
     frame : {"mni", "head"}
         The coordinates of the positions and orientations.
     peak_amplitude_nam : float
