@@ -90,16 +90,13 @@ def sys_info(fid: TextIO | None = None) -> None:
     What a bug report needs: the platform, Python and its executable, the CPU count and
     the memory, skf_ref's version, each required and optional dependency's version
     (``not installed`` where absent) and the BLAS libraries numpy and scipy load, with
-    their threads (threadpoolctl). ``skf-ref sys-info`` prints the same.
+    their threads (threadpoolctl). ``skf-ref sys-info`` prints the same; every output folder
+    and results file of the package records the same facts with the numbers it holds.
 
     Parameters
     ----------
     fid : file-like, optional
         Where to print (anything with ``write``); default ``sys.stdout``.
-
-    See Also
-    --------
-    skf_ref._utils.provenance.machine : The same facts as a dict, recorded with results.
 
     Examples
     --------
