@@ -119,7 +119,7 @@ def test_every_public_callable_has_type_hints():
 def test_the_check_finds_what_is_missing():
     def full(a: int, *, b: str = "") -> None: ...
 
-    def partial(a: int, b):  # noqa: ANN001, ANN202
+    def partial(a: int, b):
         return a
 
     class Example:
