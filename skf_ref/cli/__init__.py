@@ -11,17 +11,15 @@ This module imports nothing heavy at import time, so that Ctrl-C while numpy, sc
 load is an interruption like any other.
 """
 
-from __future__ import annotations
-
 import os
 import re
 import signal
 import sys
-from collections.abc import Sequence
-from typing import TYPE_CHECKING
 
+TYPE_CHECKING = False  # typing.TYPE_CHECKING, without importing typing (mypy reads it so)
 if TYPE_CHECKING:
     import argparse
+    from collections.abc import Sequence
     from types import FrameType
 
 __all__ = ["build_parser", "console", "main"]
@@ -29,7 +27,7 @@ __all__ = ["build_parser", "console", "main"]
 _INTERRUPTED = "skf-ref: interrupted; files already written are complete"
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser() -> "argparse.ArgumentParser":
     """The ``skf-ref`` argument parser.
 
     Returns
@@ -65,7 +63,7 @@ def _debug_asked(argv: list[str]) -> bool:
     return "--debug" in (argv[: argv.index("--")] if "--" in argv else argv)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: "Sequence[str] | None" = None) -> int:
     """Entry point of ``skf-ref``; returns the exit status.
 
     Parameters
@@ -108,7 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def _run_showing_warnings_on_success(args: argparse.Namespace) -> None:
+def _run_showing_warnings_on_success(args: "argparse.Namespace") -> None:
     """``args.run(args)``; the warnings it raised are shown after it, only if it succeeds:
     an error is one line, with no third-party text around it."""
     import warnings
@@ -119,7 +117,7 @@ def _run_showing_warnings_on_success(args: argparse.Namespace) -> None:
         warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
 
 
-def _interrupted_late(signum: int, frame: FrameType | None) -> None:
+def _interrupted_late(signum: int, frame: "FrameType | None") -> None:
     print(_INTERRUPTED, file=sys.stderr)
     os._exit(130)
 
