@@ -17,20 +17,27 @@ import re
 import signal
 import sys
 
+TYPE_CHECKING = False  # typing.TYPE_CHECKING, without importing typing (mypy reads it so)
+if TYPE_CHECKING:
+    import argparse
+    from collections.abc import Sequence
+    from types import FrameType
+
 __all__ = ["build_parser", "console", "main"]
 
 _INTERRUPTED = "skf-ref: interrupted; files already written are complete"
 
 
-def build_parser():
+def build_parser() -> "argparse.ArgumentParser":
     """The ``skf-ref`` argument parser.
 
     Returns
     -------
     argparse.ArgumentParser
+        With a subcommand per command (``args.run(args)`` runs it).
     """
     from ..version import __version__
-    from . import compare, conformance, demo, reconstruct, sweep
+    from . import compare, conformance, demo, reconstruct, sweep, sys_info
     from ._args import Parser
 
     parser = Parser(
@@ -49,14 +56,15 @@ def build_parser():
     sweep.add_parser(subparsers)
     conformance.add_parser(subparsers)
     compare.add_parser(subparsers)
+    sys_info.add_parser(subparsers)
     return parser
 
 
-def _debug_asked(argv):
+def _debug_asked(argv: list[str]) -> bool:
     return "--debug" in (argv[: argv.index("--")] if "--" in argv else argv)
 
 
-def main(argv=None):
+def main(argv: "Sequence[str] | None" = None) -> int:
     """Entry point of ``skf-ref``; returns the exit status.
 
     Parameters
@@ -71,7 +79,7 @@ def main(argv=None):
         error, 130 when interrupted.
     """
     argv = sys.argv[1:] if argv is None else list(argv)
-    mistakes = (OSError, MemoryError)
+    mistakes: tuple[type[Exception], ...] = (OSError, MemoryError)
     try:
         from .._utils.checks import InputError
         from .._utils.extras import MissingDependencyError
@@ -99,7 +107,7 @@ def main(argv=None):
     return 0
 
 
-def _run_showing_warnings_on_success(args):
+def _run_showing_warnings_on_success(args: "argparse.Namespace") -> None:
     """``args.run(args)``; the warnings it raised are shown after it, only if it succeeds:
     an error is one line, with no third-party text around it."""
     import warnings
@@ -110,12 +118,12 @@ def _run_showing_warnings_on_success(args):
         warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
 
 
-def _interrupted_late(signum, frame):
+def _interrupted_late(signum: int, frame: "FrameType | None") -> None:
     print(_INTERRUPTED, file=sys.stderr)
     os._exit(130)
 
 
-def console():
+def console() -> None:
     """The ``skf-ref`` console script: :func:`main`, then exit with its status.
 
     Once :func:`main` has returned, every file is written and closed; Ctrl-C while the
@@ -133,7 +141,7 @@ def console():
     sys.exit(status)
 
 
-def _one_line(err):
+def _one_line(err: BaseException) -> str:
     text = str(err) or type(err).__name__
     if isinstance(err, OSError) and err.filename is not None and str(err.filename) not in text:
         text = f"{text}: {err.filename}"

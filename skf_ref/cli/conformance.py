@@ -24,7 +24,13 @@ docs/conformance.md describes the files.
 
 
 def add_parser(subparsers):
-    """Add ``conformance`` (and its action ``export``) to the ``skf-ref`` subcommands."""
+    """Add ``conformance`` (and its action ``export``) to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     parser = subparsers.add_parser(
         "conformance",
         help="conformance cases to check your own SKF against",
@@ -54,7 +60,18 @@ def add_parser(subparsers):
 
 
 def run_export(args):
-    """Run ``skf-ref conformance export``; returns the files written."""
+    """Run ``skf-ref conformance export``: write the suite's cases and runners.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+    """
     from ..conformance import CONFORMANCE_VERSION, export, manifest
 
     written = export(args.directory, args.format)

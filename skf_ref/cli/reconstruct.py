@@ -42,7 +42,13 @@ def _output(text):
 
 
 def add_parser(subparsers: Any) -> None:
-    """Add ``reconstruct`` to the ``skf-ref`` subcommands."""
+    """Add ``reconstruct`` to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     parser = subparsers.add_parser(
         "reconstruct",
         help="the SKF on your own data: MNE files or arrays in, a source estimate out",
@@ -327,7 +333,18 @@ def _array_noise(args, recording, Y):
 
 
 def run(args):
-    """Run ``skf-ref reconstruct``; returns the reconstruction."""
+    """Run ``skf-ref reconstruct``: read the inputs, reconstruct, write the outputs.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    skf_ref.Reconstruction
+        The reconstruction.
+    """
     import numpy as np
 
     from .._utils.atomic_files import atomic_path

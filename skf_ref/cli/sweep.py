@@ -1,27 +1,39 @@
 """``skf-ref sweep``: a grid of P20/N20 runs, one tidy row each, resumable."""
 
+from __future__ import annotations
+
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .._utils.checks import InputError
 from ..study.sizes import DEFAULT_POSITIONS, SCENARIO_MIN_POSITIONS
-from ._args import db, integer, nonnegative
+from ._args import Parser, db, integer, nonnegative
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["add_parser", "run"]
 
 _GRID_AXES = ("snr_db", "ep_snr_db", "pm_snr_db", "exponent", "smoother")
 
 
-def _results_file(text):
+def _results_file(text: str) -> Path:
     path = Path(text)
     if path.suffix not in (".csv", ".parquet"):
         raise argparse.ArgumentTypeError(f"must end in .csv or .parquet, got {text!r}")
     return path
 
 
-def add_parser(subparsers):
-    """Add ``sweep`` to the ``skf-ref`` subcommands."""
+def add_parser(subparsers: argparse._SubParsersAction[Parser]) -> None:
+    """Add ``sweep`` to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     from ..study.sweep import paper_grid
 
     paper = paper_grid(seeds=10)
@@ -75,8 +87,19 @@ def add_parser(subparsers):
     sweep.set_defaults(run=run)
 
 
-def run(args):
-    """Run ``skf-ref sweep``; returns the results table."""
+def run(args: argparse.Namespace) -> pd.DataFrame:
+    """Run ``skf-ref sweep``: the grid's runs not yet in the results file.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Every row of the results file (:func:`skf_ref.study.sweep.run_sweep`).
+    """
     import warnings
 
     from ..study.sweep import TornLineWarning, paper_grid, run_sweep
