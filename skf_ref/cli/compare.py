@@ -49,9 +49,16 @@ def add_parser(subparsers):
 
 def run(args):
     """Run ``skf-ref compare``: print the report; exit status 1 when something disagrees."""
-    from .._utils.atomic_files import atomic_path
+    from .._utils.atomic_files import atomic_path, check_output_path
     from ..conformance.compare import compare
 
+    if args.json is not None:  # before any work: a folder that exists, no input replaced
+        check_output_path(
+            args.json,
+            name="argument --json",
+            suffixes=(".json",),
+            inputs={"CASE_FILE": args.case, "THEIRS": args.theirs},
+        )
     result = compare(args.case, args.theirs, tolerance=args.tolerance)
     if args.json is not None:
         with atomic_path(args.json) as tmp:

@@ -38,7 +38,8 @@ def add_parser(subparsers):
         description="Copy the pinned conformance suite (every case's inputs and expected "
         "outputs, one file per case and format, and manifest.json with their sha256) and "
         "the runners run_cases.m and run_cases.py to DIR. The files are the suite's, byte "
-        "for byte, whatever the version of skf_ref.",
+        "for byte, whatever the version of skf_ref. A runner already in DIR that you "
+        "adapted is kept: the shipped one is written beside it (run_cases_shipped.py).",
         epilog=_EXAMPLES,
     )
     export.add_argument("directory", type=Path, metavar="DIR", help="folder (made if missing)")
@@ -55,9 +56,15 @@ def add_parser(subparsers):
 
 def run_export(args):
     """Run ``skf-ref conformance export``; returns the files written."""
+    import warnings
+
     from ..conformance import CONFORMANCE_VERSION, export, manifest
 
-    written = export(args.directory, args.format)
+    with warnings.catch_warnings(record=True) as kept:
+        warnings.simplefilter("always", UserWarning)
+        written = export(args.directory, args.format)
+    for warning in kept:  # a runner the user edited: kept, the shipped one beside it
+        print(f"skf-ref: note: {warning.message}", file=sys.stderr)
     if not args.quiet:
         n_cases = sum(path.suffix in (".npz", ".mat") for path in written)
         print(

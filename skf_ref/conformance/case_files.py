@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .._utils.atomic_files import atomic_path
-from .._utils.checks import InputError, check_array
+from .._utils.atomic_files import atomic_path, check_output_path
+from .._utils.checks import InputError, check_array, check_instance
 from ..method.reconstruct import check_smoother
 from ..method.result import readonly
 from .cases import EXTRAS, INPUTS, OUTPUTS, Case, as_value
@@ -63,9 +63,8 @@ def write_case(case, path):
     -------
     Path
     """
-    path = Path(path)
-    if path.suffix not in (".npz", ".mat"):
-        raise InputError(f"a case is written to .npz or .mat, got {str(path)!r}")
+    path = check_output_path(path, suffixes=(".npz", ".mat"))
+    check_instance("case", case, Case, "a conformance Case")
     (_write_npz if path.suffix == ".npz" else _write_mat)(path, case.variables())
     return path
 
@@ -101,7 +100,7 @@ def read_case(path):
     skf_ref.InputError
         If the file is not a conformance case: names the missing variable or the shape.
     """
-    from ..io.files import read_variables
+    from ..io.variables import read_variables
 
     variables = read_variables(path)
     missing = [name for name in (*_ABOUT, *INPUTS, *OUTPUTS) if name not in variables]

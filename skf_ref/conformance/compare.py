@@ -23,11 +23,12 @@ from functools import lru_cache
 
 import numpy as np
 
-from .._utils.checks import InputError, check_real
+from .._utils.checks import InputError, check_path, check_real
 from .case_files import read_case
 from .cases import OUTPUTS, Case
 from .mistakes import SUSPECTS
 from .precision import precision
+from .suite import check_pinned
 from .their_outputs import checked, read_outputs
 
 __all__ = ["Comparison", "compare", "read_outputs"]
@@ -115,8 +116,10 @@ def compare(case, theirs, *, tolerance=None):
     Raises
     ------
     skf_ref.InputError
-        If their outputs are unusable: none of the output names, or a wrong shape (the
-        message names the output and the shape expected).
+        If their outputs are unusable: none of the output names, a wrong shape (the
+        message names the output and the shape expected), complex numbers; or if the case
+        file says it is one of the pinned suite's and is not its bytes
+        (:func:`~skf_ref.conformance.suite.check_pinned`).
 
     Examples
     --------
@@ -129,7 +132,10 @@ def compare(case, theirs, *, tolerance=None):
     >>> result.agrees, result.diagnosis
     (False, ['exponent_on_square_root'])
     """
-    case = case if isinstance(case, Case) else read_case(case)
+    if not isinstance(case, Case):
+        path = check_path("case", case)
+        case = read_case(path)
+        check_pinned(path, case)
     if tolerance is None:
         tolerance = case.tolerance
     tolerance = check_real("tolerance", tolerance, positive=True)

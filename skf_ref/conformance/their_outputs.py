@@ -92,6 +92,8 @@ def read_outputs(theirs):
     Returns
     -------
     variables : dict
+        Every name ``theirs`` holds; from a ``.npz`` or ``.mat`` file, only the outputs'
+        values are read (the other names map to None).
     source : str
     """
     if isinstance(theirs, Mapping):
@@ -102,7 +104,7 @@ def read_outputs(theirs):
         raise InputError(
             f"theirs must be a file, a mapping or a Reconstruction, got {describe(theirs)}"
         )
-    from ..io.files import read_variables
+    from ..io.variables import read_variables
 
     path = Path(theirs)
     if path.suffix == ".csv":
@@ -111,8 +113,8 @@ def read_outputs(theirs):
         return _read_csv(path), str(path)
     if path.suffix not in (".npz", ".mat"):
         raise InputError(f"{path}: give their outputs as .npz, .mat or .csv")
-    variables = read_variables(path)
-    return {k: v for k, v in variables.items() if not k.startswith("__")}, str(path)
+    variables = read_variables(path)  # lazy: only the outputs are read, the rest named
+    return {k: variables[k] if k in OUTPUTS else None for k in variables}, str(path)
 
 
 def checked(name, value, shape, source):
@@ -136,12 +138,25 @@ def checked(name, value, shape, source):
     Raises
     ------
     skf_ref.InputError
-        Not numbers, or another shape: names the output and the shape expected.
+        Not numbers (text, complex numbers with an imaginary part), or another shape:
+        names the output and the shape expected.
     """
     try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{source}: {name} must be numbers, got {describe(value)}") from None
+        array = np.asarray(value)
+    except (TypeError, ValueError):  # ragged nested sequences
+        array = np.asarray(None)
+    if array.dtype.kind == "c":
+        imaginary = float(np.max(np.abs(array.imag), initial=0.0))
+        if imaginary > 0:
+            raise InputError(
+                f"{source}: {name} is complex (largest imaginary part {imaginary:.3g}, largest "
+                f"real part {float(np.max(np.abs(array.real), initial=0.0)):.3g}): an SKF's "
+                "outputs are real; give them as real numbers"
+            )
+        array = array.real
+    if array.dtype.kind not in "fiu":
+        raise InputError(f"{source}: {name} must be numbers, got {describe(value)}")
+    array = array.astype(float)
     if name == "log_likelihood":
         if array.size != 1:
             raise InputError(f"{source}: log_likelihood must be one number, got {array.shape}")

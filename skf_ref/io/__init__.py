@@ -23,7 +23,7 @@ _HOMES = {
     "Recording": "files",
     "read_data": "files",
     "read_leadfield": "files",
-    "read_variables": "files",
+    "read_variables": "variables",
     "write_reconstruction": "files",
     "write_stc": "files",
     "SKFOperator": "operator",

@@ -25,7 +25,7 @@ from pathlib import Path
 import pandas as pd
 
 from ..._utils.atomic_files import atomic_path
-from ..._utils.checks import InputError
+from ..._utils.checks import InputError, check_path
 from ._grid import KEY, row_key
 
 try:
@@ -154,7 +154,7 @@ class ResultsFile:
     """
 
     def __init__(self, out):
-        self.out = Path(out)
+        self.out = check_path("out", out)
         if self.out.suffix not in (".csv", ".parquet"):
             raise InputError(f"out must be a .csv or .parquet file name, got {str(self.out)!r}")
         self.existing = pd.DataFrame()
