@@ -142,6 +142,26 @@ def test_errors_print_one_line_and_exit_2(tmp_path, monkeypatch, capsys, argumen
     assert not any((tmp_path / "out").glob("*")) if (tmp_path / "out").exists() else True
 
 
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["demo", "--montage", "foo"], "--montage: montage must be the name of an MNE built-in"),
+        (["demo", "--positions", "500"], "--positions: n_positions sizes the sphere's volume"),
+        (["sweep", "--out", "x.csv", "--montage", "foo"], "argument --montage: montage must be"),
+        (["sweep", "--out", "nodir/x.csv"], "argument --out: nodir/x.csv: the folder nodir"),
+    ],
+)
+def test_an_error_is_the_only_line_even_without_quiet(tmp_path, monkeypatch, capsys,
+                                                      arguments, message):  # fmt: skip
+    monkeypatch.chdir(tmp_path)
+    if arguments[0] == "demo":
+        arguments = [*arguments, "--out", str(tmp_path / "out")]
+    assert main(arguments) == 2
+    captured = capsys.readouterr()
+    assert captured.err.count("\n") == 1 and message in captured.err, captured.err
+    assert captured.out == "" and not any(tmp_path.iterdir())
+
+
 def test_console_script_entry_point_runs_without_traceback(tmp_path):
     result = subprocess.run(
         [sys.executable, "-m", "skf_ref.cli", "demo", "--snr-db", "inf", "--out", str(tmp_path)],

@@ -28,7 +28,12 @@ WRITERS = {
         TIMES,
         0,
     ),
-    "pandas, default index (row labels 0..7)": (lambda p: pd.DataFrame(Y).to_csv(p), None, None, 0),
+    "pandas, default index (row labels 0..7)": (
+        lambda p: pd.DataFrame(Y).to_csv(p),
+        None,
+        None,
+        0,
+    ),
     "pandas, default index, no header": (
         lambda p: pd.DataFrame(Y).to_csv(p, header=False),
         None,

@@ -162,8 +162,6 @@ def test_written_results(tmp_path, mne_setup):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["est-stc.h5", "est-vl.stc", "r.npz"]
 
 
-
-
 # --- only what is asked for is read; what is not an archive is told so -------------------
 
 
@@ -290,8 +288,10 @@ def test_every_writer_names_a_swapped_or_wrong_argument(tmp_path, mne_setup):
             lambda: stc_to_zarr(rec, mne_setup["forward"]["src"], None, 0.0, 1e-3),
             "path",
         ),
-        "write_case(path, case)": (lambda: write_case(path.with_suffix(".npz"), cases()[0]),
-                                   "path"),  # fmt: skip
+        "write_case(path, case)": (
+            lambda: write_case(path.with_suffix(".npz"), cases()[0]),
+            "path",
+        ),  # fmt: skip
         "export(3)": (lambda: export(3), "directory"),
         "build(None)": (lambda: build(None), "directory"),
         "run_sweep(grid, 3)": (lambda: run_sweep(small_grid(), 3, verbose=False), "out"),
@@ -320,7 +320,9 @@ def test_a_vector_estimate_is_refused_as_stc_before_anything_is_written(tmp_path
 
     evoked = mne_setup["make_epochs"](target=300, seed=5).average()
     vector = apply_skf(evoked, mne_setup["forward"], noise_std=1e-6, pick_ori="vector")
-    with pytest.raises(InputError, match=r"est.stc: MNE writes a VolVectorSourceEstimate to .h5 only"):
+    with pytest.raises(
+        InputError, match=r"est.stc: MNE writes a VolVectorSourceEstimate to .h5 only"
+    ):
         write_stc(tmp_path / "est.stc", vector)
     assert not any(tmp_path.iterdir())
     (written,) = write_stc(tmp_path / "est.h5", vector)

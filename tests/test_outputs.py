@@ -61,7 +61,9 @@ def test_an_output_path_is_checked_for_everything_that_would_fail_later(tmp_path
     existing = tmp_path / "old.npz"
     existing.write_bytes(b"a result")
     with pytest.raises(InputError, match="old.npz exists: give --overwrite to replace it"):
-        check_output_path(existing, overwrite=False, overwrite_hint="give --overwrite to replace it")
+        check_output_path(
+            existing, overwrite=False, overwrite_hint="give --overwrite to replace it"
+        )
     assert check_output_path(existing) == existing
     with pytest.raises(TypeError, match=r"^path must be a file name \(str or path-like\), got"):
         check_output_path(np.zeros(3))
