@@ -28,7 +28,7 @@ import re
 import shutil
 import sys
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from .checks import InputError, check_path
@@ -163,7 +163,7 @@ def check_output_path(
     *,
     name: str | None = None,
     suffixes: Iterable[str] | None = None,
-    inputs: dict[str, object] | None = None,
+    inputs: dict[str, str | os.PathLike | None] | None = None,
     overwrite: bool = True,
     overwrite_hint: str = "give overwrite=True to replace it",
 ) -> Path:
@@ -343,7 +343,7 @@ _RENAME_NOREPLACE = 1  # Linux renameat2
 _RENAME_EXCL = 4  # macOS renamex_np
 
 
-def _libc_rename(name: str) -> object:
+def _libc_rename(name: str) -> Callable[..., int] | None:
     try:
         function = getattr(ctypes.CDLL(None, use_errno=True), name)
     except (OSError, AttributeError):  # no such C library call here

@@ -9,6 +9,9 @@ reshaped or cast silently.
 """
 
 import numbers
+import os
+from collections.abc import Iterable
+from pathlib import Path
 
 import numpy as np
 from scipy import linalg
@@ -268,7 +271,7 @@ def check_transition(value, n):
     return check_array("transition", value, (n, n))
 
 
-def check_path(name, value):
+def check_path(name: str, value: object) -> Path:
     """``value`` as a :class:`~pathlib.Path` if it is a file name (``str`` or path-like).
 
     Anything else (an array, a source estimate, ``bytes``, ``None``) raises an
@@ -284,9 +287,6 @@ def check_path(name, value):
     ...
     skf_ref._utils.checks.InputTypeError: path must be a file name (str or ...), got 3.5 (float)
     """
-    import os
-    from pathlib import Path
-
     if isinstance(value, str | os.PathLike) and not isinstance(value, bytes):
         path = Path(value)
         if str(path) not in ("", "."):
@@ -295,7 +295,7 @@ def check_path(name, value):
     raise InputTypeError(f"{name} must be a file name (str or path-like), got {describe(value)}")
 
 
-def check_memory_limit(value, name="memory_limit"):
+def check_memory_limit(value: object, name: str = "memory_limit") -> float | None:
     """A memory budget in bytes: ``None`` (the default budget) or a finite number > 0.
 
     One check for every ``memory_limit`` argument: ``"1G"`` is refused as text (give
@@ -315,7 +315,7 @@ def check_memory_limit(value, name="memory_limit"):
     return check_real(name, value, positive=True)
 
 
-def check_names(name, names, unit="position"):
+def check_names(name: str, names: Iterable[object], unit: str = "position") -> list[str]:
     """Channel names as a list of ``str``: none empty, none given twice.
 
     ``unit`` is what the message calls a name's place (``"position"``, ``"row"``).

@@ -11,17 +11,23 @@ This module imports nothing heavy at import time, so that Ctrl-C while numpy, sc
 load is an interruption like any other.
 """
 
+from __future__ import annotations
+
 import os
 import re
 import signal
 import sys
+from typing import TYPE_CHECKING, NoReturn
+
+if TYPE_CHECKING:
+    import argparse
 
 __all__ = ["build_parser", "console", "main"]
 
 _INTERRUPTED = "skf-ref: interrupted; files already written are complete"
 
 
-def build_parser():
+def build_parser() -> argparse.ArgumentParser:
     """The ``skf-ref`` argument parser.
 
     Returns
@@ -55,7 +61,7 @@ def _debug_asked(argv):
     return "--debug" in (argv[: argv.index("--")] if "--" in argv else argv)
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> int:
     """Entry point of ``skf-ref``; returns the exit status.
 
     Parameters
@@ -70,7 +76,7 @@ def main(argv=None):
         error, 130 when interrupted.
     """
     argv = sys.argv[1:] if argv is None else list(argv)
-    mistakes = (OSError, MemoryError)
+    mistakes: tuple[type[Exception], ...] = (OSError, MemoryError)
     try:
         from .._utils.checks import InputError
         from .._utils.extras import MissingDependencyError
@@ -151,7 +157,7 @@ def _exit_after_handlers(status, _exit=os._exit):
     _exit(status[0])
 
 
-def console():
+def console() -> NoReturn:
     """The ``skf-ref`` console script: :func:`main`, then exit with its status.
 
     Ctrl-C at any moment ends with one line and status 130: while the command runs (it

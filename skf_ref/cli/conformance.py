@@ -1,7 +1,11 @@
 """``skf-ref conformance export``: the pinned conformance suite, to check another SKF against."""
 
+from __future__ import annotations
+
+import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 __all__ = ["add_parser", "run_export"]
 
@@ -23,7 +27,7 @@ docs/conformance.md describes the files.
 """
 
 
-def add_parser(subparsers):
+def add_parser(subparsers: Any) -> None:
     """Add ``conformance`` (and its action ``export``) to the ``skf-ref`` subcommands."""
     parser = subparsers.add_parser(
         "conformance",
@@ -54,7 +58,7 @@ def add_parser(subparsers):
     export.set_defaults(run=run_export)
 
 
-def run_export(args):
+def run_export(args: argparse.Namespace) -> list[Path]:
     """Run ``skf-ref conformance export``; returns the files written."""
     import warnings
 

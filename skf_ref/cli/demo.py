@@ -1,7 +1,11 @@
 """``skf-ref demo``: parses its options, calls :func:`skf_ref.study.demo.run_demo`, prints."""
 
+from __future__ import annotations
+
+import argparse
 import re
 from pathlib import Path
+from typing import Any
 
 from .._utils.checks import InputError
 from ..method.settings import RECOMMENDED_SETTING
@@ -20,7 +24,7 @@ _PRINTED = (
 )
 
 
-def add_parser(subparsers):
+def add_parser(subparsers: Any) -> None:
     """Add ``demo`` to the ``skf-ref`` subcommands."""
     demo = subparsers.add_parser(
         "demo",
@@ -85,7 +89,7 @@ def add_parser(subparsers):
     demo.set_defaults(run=run)
 
 
-def run(args):
+def run(args: argparse.Namespace) -> Any:
     """Run ``skf-ref demo``; returns the :class:`skf_ref.study.demo.Demo`."""
     from ..study.demo import run_demo
     from ..study.head import check_montage

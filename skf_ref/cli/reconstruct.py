@@ -1,9 +1,12 @@
 """``skf-ref reconstruct``: your own EEG in, a source estimate (or arrays) out."""
 
+from __future__ import annotations
+
 import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 from .._utils.checks import InputError
 from ..method.settings import RECOMMENDED_SETTING
@@ -29,7 +32,7 @@ the package versions.
 _OUTPUTS = (".npz", ".stc", ".h5")
 
 
-def _output(text):
+def _output(text: str) -> Path:
     path = Path(text)
     if path.suffix not in _OUTPUTS:
         raise argparse.ArgumentTypeError(f"must end in .npz, .stc or .h5, got {text!r}")
@@ -125,7 +128,7 @@ def _route(args):
     return "mne" if mne_route else "arrays"
 
 
-def _outputs(args) -> dict[str, list[Path]]:
+def _outputs(args: argparse.Namespace) -> dict[str, list[Path]]:
     """Every file the command writes, by the flag that names it."""
     from ..io.files import stc_files
 
@@ -147,7 +150,7 @@ def _outputs(args) -> dict[str, list[Path]]:
     return outputs
 
 
-def _check_outputs(args):
+def _check_outputs(args: argparse.Namespace) -> None:
     """Every file to write can be written, is no input and replaces nothing unless
     --overwrite: checked before any work."""
     from .._utils.atomic_files import check_output_path, same_file
@@ -165,7 +168,7 @@ def _check_outputs(args):
                 f"argument --plot: {args.plot}: a figure is written to "
                 f"{', '.join('.' + f for f in sorted(formats))}, got {args.plot.suffix!r}"
             )
-    seen = []
+    seen: list[tuple[str, Path]] = []
     for flag, paths in _outputs(args).items():
         for path in paths:
             name = "argument --out" if flag == "--out's settings" else f"argument {flag}"
@@ -184,7 +187,7 @@ def _check_outputs(args):
         _check_stc_format(args)
 
 
-def _check_stc_format(args):
+def _check_stc_format(args: argparse.Namespace) -> None:
     """MNE writes .stc for one surface or one volume only: a mixed source space, or
     several volumes, go to .h5 (read off the forward's source space, not its gain)."""
     import mne
@@ -357,7 +360,7 @@ def _array_noise(args, recording, Y, n_channels):
     return {"noise_cov": cov.data[np.ix_(index, index)]}
 
 
-def run(args):
+def run(args: argparse.Namespace) -> Any:
     """Run ``skf-ref reconstruct``; returns the reconstruction."""
     import numpy as np
 
@@ -372,7 +375,9 @@ def run(args):
     return rec
 
 
-def _write(args, route, rec, stc, times, positions):
+def _write(
+    args: argparse.Namespace, route: str, rec: Any, stc: Any, times: Any, positions: Any
+) -> list[Path]:
     """The estimate, its settings beside it and the figure; each file whole or absent."""
     import numpy as np
 

@@ -1,9 +1,12 @@
 """``skf-ref sweep``: a grid of P20/N20 runs, one tidy row each, resumable."""
 
+from __future__ import annotations
+
 import argparse
 import signal
 import sys
 from pathlib import Path
+from typing import Any
 
 from .._utils.checks import InputError
 from ..study.sizes import DEFAULT_POSITIONS, SCENARIO_MIN_POSITIONS
@@ -21,7 +24,7 @@ def _results_file(text):
     return path
 
 
-def add_parser(subparsers):
+def add_parser(subparsers: Any) -> None:
     """Add ``sweep`` to the ``skf-ref`` subcommands."""
     from ..study.sweep import paper_grid
 
@@ -126,7 +129,7 @@ def _run_sweep(args, grid, run_sweep, torn_line):
     return table
 
 
-def run(args):
+def run(args: argparse.Namespace) -> Any:
     """Run ``skf-ref sweep``; returns the results table."""
     from .._utils.atomic_files import check_output_path
     from ..study.head import check_montage

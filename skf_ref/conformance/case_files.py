@@ -1,7 +1,11 @@
 """Case files (``.npz``, MATLAB v5 ``.mat``): written the same bytes every time, read back."""
 
+from __future__ import annotations
+
 import io
+import os
 import zipfile
+from pathlib import Path
 
 import numpy as np
 
@@ -49,7 +53,7 @@ def _write_mat(path, variables):
         tmp.write_bytes(bytes(data))
 
 
-def write_case(case, path):
+def write_case(case: Case, path: str | os.PathLike) -> Path:
     """Write one case to ``.npz`` or MATLAB v5 ``.mat``, the same bytes every time.
 
     Parameters
@@ -82,7 +86,7 @@ def _scalar_or_square(variables, name, path, n):
     return readonly(check_array(f"{path}: {name}", value, (n, n)))
 
 
-def read_case(path):
+def read_case(path: str | os.PathLike) -> Case:
     """Read a case written by :func:`write_case` (or :func:`export`).
 
     Parameters

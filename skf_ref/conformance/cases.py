@@ -6,14 +6,17 @@ once (:func:`skf_ref.conformance.suite.build`); the suite users run is the pinne
 :func:`skf_ref.conformance.cases`, and a test fails when :func:`generate` drifts from it.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from ..method.outputs import OUTPUTS
 from ..method.priors import priors_from_snr
 from ..method.reconstruct import reconstruct
-from ..method.result import readonly
+from ..method.result import Reconstruction, readonly
 from ..version import __version__
 
 __all__ = [
@@ -96,11 +99,11 @@ class Case:
     skf_ref_version: str = __version__
 
     @property
-    def shape(self):
+    def shape(self) -> tuple[int, int]:
         """tuple : (n_sources, n_times) of every array output."""
         return (self.inputs["L"].shape[1], self.inputs["Y"].shape[1])
 
-    def reconstruct(self, method="dense", **changes):
+    def reconstruct(self, method: str = "dense", **changes: Any) -> Reconstruction:
         """Run :func:`skf_ref.reconstruct` on the inputs with one of its paths.
 
         Parameters
@@ -129,7 +132,7 @@ class Case:
             method=method,
         )
 
-    def variables(self):
+    def variables(self) -> dict[str, Any]:
         """Everything the case's file holds, by name; ``smoother`` None as ``"none"``.
 
         Returns
@@ -150,7 +153,7 @@ class Case:
 
 # --- the cases -------------------------------------------------------------------------------
 
-_SPECS = []
+_SPECS: list[tuple] = []
 
 
 def _case(name, seed, description, *exercises):
@@ -357,7 +360,7 @@ def _exercises(inputs, own):
     return tuple(tags)
 
 
-def as_value(value):
+def as_value(value: Any) -> float | np.ndarray:
     """``value`` as a float if it is a scalar, else as a read-only float array (a copy)."""
     return float(value) if np.ndim(value) == 0 else readonly(np.array(value, dtype=float))
 
@@ -379,7 +382,7 @@ def _build(name, seed, description, own, builder):
     return case
 
 
-def generate():
+def generate() -> list[Case]:
     """Every case computed afresh by the installed package: the dense path's outputs.
 
     This is how a suite version is made; the suite itself is the pinned copy,

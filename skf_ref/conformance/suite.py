@@ -23,6 +23,7 @@ import warnings
 from collections.abc import Sequence
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 from .._utils.atomic_files import atomic_path
 from .._utils.checks import InputError, check_choice, check_path
@@ -58,7 +59,7 @@ RUNNERS = tuple(
 )
 
 
-def sha256(path):
+def sha256(path: str | os.PathLike) -> str:
     """The sha256 of a file, as hexadecimal text.
 
     Parameters
@@ -77,7 +78,7 @@ def _pinned_manifest():
     return json.loads((SUITE / "manifest.json").read_text(encoding="utf-8"))
 
 
-def manifest():
+def manifest() -> dict[str, Any]:
     """The suite's ``manifest.json``: versions, tolerances, layout, and each case's files.
 
     Returns
@@ -105,7 +106,7 @@ def _pinned_cases():
     )
 
 
-def cases():
+def cases() -> list[Case]:
     """The suite's cases, read from its pinned files (once per process).
 
     Returns
@@ -292,7 +293,7 @@ def _checked_formats(formats):
     return formats
 
 
-def build(directory, formats=FORMATS):
+def build(directory: str | os.PathLike, formats: Sequence[str] = FORMATS) -> list[Path]:
     """Compute every case afresh and write a suite: how a new suite version is made.
 
     Writes :func:`~skf_ref.conformance.cases.generate`'s cases in each format and their

@@ -15,9 +15,12 @@ Every (source, step) of an output it holds must appear exactly once. A UTF-8 byt
 mark at the start of the file is allowed.
 """
 
+from __future__ import annotations
+
 import csv
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -80,7 +83,7 @@ def _assemble(path, name, entries):
     return array
 
 
-def read_outputs(theirs):
+def read_outputs(theirs: Any) -> tuple[dict[str, Any], str]:
     """Everything ``theirs`` holds, by name, and how to name it in messages.
 
     Parameters
@@ -117,7 +120,7 @@ def read_outputs(theirs):
     return {k: variables[k] if k in OUTPUTS else None for k in variables}, str(path)
 
 
-def checked(name, value, shape, source):
+def checked(name: str, value: Any, shape: tuple[int, int], source: str) -> float | np.ndarray:
     """``value`` as a float, or an array of ``shape`` or its transpose; else an error.
 
     Parameters

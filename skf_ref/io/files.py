@@ -49,7 +49,7 @@ from .._utils.checks import (
 )
 from .._utils.extras import optional
 from .tables import read_csv
-from .variables import existing_file, read_npy, read_variables, reading
+from .variables import Variables, existing_file, read_npy, read_variables, reading
 
 __all__ = [
     "LeadField",
@@ -106,7 +106,7 @@ class Recording:
     evoked: Any = None
 
 
-def _pick(variables: Mapping[str, Any], key: str | None, conventional: Sequence[str], path):
+def _pick(variables: Variables, key: str | None, conventional: Sequence[str], path: Path) -> Any:
     """The array under ``key``, the only numeric array, or the first conventional name.
 
     Only the array picked is read (:func:`~skf_ref.io.variables.read_variables` is lazy).
@@ -337,7 +337,9 @@ def write_reconstruction(
         raise InputTypeError(
             f"reconstruction must be an skf_ref.Reconstruction, got {describe(reconstruction)}"
         )
-    arrays = {name: getattr(reconstruction, name) for name in ("z", "x", "weights")}
+    arrays: dict[str, Any] = {
+        name: getattr(reconstruction, name) for name in ("z", "x", "weights")
+    }
     if times is not None:
         arrays["times"] = np.asarray(times, dtype=float)
     if positions is not None:
@@ -348,7 +350,9 @@ def write_reconstruction(
             arrays["amplitude"] = reconstruction.amplitude(components)
     settings = {**reconstruction.settings, **(extra or {})}
     settings |= {f"{k}_version": v for k, v in package_versions().items()}
-    scalars = {k: np.asarray("none" if v is None else v) for k, v in settings.items()}
+    scalars: dict[str, Any] = {
+        k: np.asarray("none" if v is None else v) for k, v in settings.items()
+    }
     scalars["log_likelihood"] = np.asarray(reconstruction.log_likelihood)
     with atomic_path(path) as tmp:
         np.savez_compressed(tmp, **arrays, **scalars)
@@ -441,7 +445,9 @@ def write_stc(path: str | os.PathLike, stc: Any) -> list[Path]:
     """
     path = check_path("path", path)
     mne = optional("mne", "mne", "write_stc")
-    if not isinstance(stc, tuple(getattr(mne, name) for name in _STC_CLASSES)):
+    if type(stc).__name__ not in _STC_CLASSES or not isinstance(
+        stc, getattr(mne, type(stc).__name__)
+    ):
         raise InputTypeError(f"stc must be an MNE source estimate, got {describe(stc)}")
     volumes = len(stc.vertices) if type(stc).__name__ == "VolSourceEstimate" else 1
     finals = [check_output_path(f) for f in stc_files(path, type(stc).__name__, volumes)]

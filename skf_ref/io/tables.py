@@ -175,9 +175,10 @@ def _steady(values: np.ndarray) -> bool:
 
 def _row_values(texts: list[str]) -> np.ndarray | None:
     values = [_number(text) for text in texts]
-    if None in values or not np.all(np.isfinite(values)):
+    if any(value is None for value in values):
         return None
-    return np.array(values, dtype=float)
+    array = np.array(values, dtype=float)
+    return array if np.all(np.isfinite(array)) else None
 
 
 def _header_times(texts: list[str], sfreq: float | None, path: Path) -> np.ndarray | None:
@@ -241,8 +242,12 @@ def _label_column(first_column: list[str], path: Path) -> bool:
     if _consecutive(texts) and len(texts) >= 3:
         return True  # pandas' default index, channels numbered: the evidence of 3 rows
     values = _row_values(texts)
-    numbered = values is not None and len(values) > 1 and values[0] in (0, 1)
-    numbered = numbered and np.array_equal(values, values[0] + np.arange(len(values)))
+    numbered = (
+        values is not None
+        and len(values) > 1
+        and values[0] in (0, 1)
+        and np.array_equal(values, values[0] + np.arange(len(values)))
+    )
     # row numbers on fewer rows, or with a decimal point, or under a first row: either
     if _consecutive(texts) or numbered or _consecutive(texts[1:]) and len(texts) > 3:
         shown = ", ".join(texts[:3]) + (", ..." if len(texts) > 3 else "")

@@ -25,7 +25,7 @@ import numpy as np
 
 from .._utils.checks import InputError, check_path
 
-__all__ = ["existing_file", "read_npy", "read_variables", "reading"]
+__all__ = ["Variables", "existing_file", "read_npy", "read_variables", "reading"]
 
 _NPY_MAGIC = b"\x93NUMPY"
 _ZIP_MAGIC = b"PK\x03\x04"
@@ -132,11 +132,20 @@ def read_npy(path: object, name: str = "path") -> np.ndarray:
         return np.load(path, allow_pickle=False)
 
 
-class _Variables(Mapping):
-    """A file's variables by name, each read when first asked for (then kept)."""
+class Variables(Mapping):
+    """A file's variables by name, each read when first asked for (then kept).
+
+    Parameters
+    ----------
+    kinds : dict
+        ``{name: numpy dtype kind}`` of every variable, read from the file's directory.
+    load : callable
+        ``load(name)`` reads one variable.
+    """
 
     def __init__(self, kinds: dict[str, str], load: Callable[[str], Any]) -> None:
-        self._kinds, self._load, self._values = kinds, load, {}
+        self._kinds, self._load = kinds, load
+        self._values: dict[str, Any] = {}
 
     def __getitem__(self, name: str) -> Any:
         if name not in self._kinds:
@@ -159,7 +168,7 @@ class _Variables(Mapping):
         return f"<variables {sorted(self._kinds)}>"
 
 
-def _npz(path: Path) -> _Variables:
+def _npz(path: Path) -> Variables:
     if not zipfile.is_zipfile(path):
         hint = ": it is a NumPy .npy array (name it .npy)" if _magic(path) == _NPY_MAGIC else ""
         raise InputError(f"{path}: not an .npz archive (a zip file of NumPy arrays){hint}")
@@ -180,7 +189,7 @@ def _npz(path: Path) -> _Variables:
         with reading(path, "a NumPy .npz archive"), np.load(path, allow_pickle=False) as npz:
             return npz[name]
 
-    return _Variables(kinds, load)
+    return Variables(kinds, load)
 
 
 def _matrix(value: Any, shape: tuple[int, ...], kind: str) -> Any:
@@ -191,7 +200,7 @@ def _matrix(value: Any, shape: tuple[int, ...], kind: str) -> Any:
     return value
 
 
-def _mat_v5(path: Path) -> _Variables:
+def _mat_v5(path: Path) -> Variables:
     from scipy.io import loadmat, whosmat
 
     with reading(path, "a MATLAB v5 file"):
@@ -204,10 +213,10 @@ def _mat_v5(path: Path) -> _Variables:
             value = loadmat(path, squeeze_me=True, variable_names=[name])[name]
         return _matrix(value, shapes[name], kinds[name])
 
-    return _Variables(kinds, load)
+    return Variables(kinds, load)
 
 
-def _mat_v73(path: Path) -> _Variables:
+def _mat_v73(path: Path) -> Variables:
     import h5py
     from pymatreader import read_mat
 
@@ -227,10 +236,10 @@ def _mat_v73(path: Path) -> _Variables:
             value = read_mat(str(path), variable_names=[name])[name]
         return _matrix(value, shapes[name], kinds[name])
 
-    return _Variables(kinds, load)
+    return Variables(kinds, load)
 
 
-def read_variables(path: object) -> Mapping[str, Any]:
+def read_variables(path: object) -> Variables:
     """The variables of a ``.npz`` or ``.mat`` (v5 or v7.3) file, by name, read when used.
 
     The names come from the file's directory; a variable's data are read (and
@@ -244,8 +253,8 @@ def read_variables(path: object) -> Mapping[str, Any]:
 
     Returns
     -------
-    Mapping
-        ``{name: value}``: NumPy's arrays as they were saved; MATLAB's 1 x 1 arrays as
+    Variables
+        A mapping ``{name: value}``: NumPy's arrays as they were saved; MATLAB's 1 x 1 arrays as
         numbers, text as ``str``, matrices with both their dimensions (module docstring).
 
     Raises

@@ -16,7 +16,7 @@ import os
 import secrets
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -255,7 +255,13 @@ def new_store(
         raise
 
 
-def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
+def to_zarr(
+    reconstruction: Reconstruction,
+    path: str | os.PathLike,
+    arrays: Sequence[str] = ("z",),
+    chunks: int | None = None,
+    overwrite: bool = False,
+) -> Any:
     """Write outputs to a zarr store (a folder), one block of rows at a time.
 
     No output is held whole: memory is the r x T quantities, the block being computed and
@@ -298,7 +304,15 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
     return zarr.open_group(path, mode="r")
 
 
-def stc_to_zarr(reconstruction, src, path, tmin, tstep, pick_ori=None, overwrite=False):
+def stc_to_zarr(
+    reconstruction: Reconstruction,
+    src: Any,
+    path: str | os.PathLike,
+    tmin: float,
+    tstep: float,
+    pick_ori: str | None = None,
+    overwrite: bool = False,
+) -> Any:
     """Write what :func:`skf_ref.io.stc.make_stc` would hold to a zarr store, row block by
     row block: an estimate of any length, without ever holding it whole.
 
@@ -377,7 +391,7 @@ def _write_behind(blocks, write, limit=WRITE_BEHIND_BYTES):
             writer.shutdown(cancel_futures=True)
 
 
-def to_dask(reconstruction, name="z", chunks=None):
+def to_dask(reconstruction: Reconstruction, name: str = "z", chunks: int | None = None) -> Any:
     """Output ``name`` as a Dask array of row blocks that a cluster computes.
 
     The r x T quantities (and ``V``) are one Dask task, so a distributed cluster moves

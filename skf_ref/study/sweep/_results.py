@@ -16,11 +16,14 @@ fields, an empty or non-numeric key, a run written twice, columns of another pro
 silently.
 """
 
+from __future__ import annotations
+
 import csv
 import io
 import os
 import warnings
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -28,6 +31,7 @@ from ..._utils.atomic_files import atomic_path
 from ..._utils.checks import InputError, check_path
 from ._grid import KEY, row_key
 
+fcntl: Any
 try:
     import fcntl
 except ImportError:  # Windows: the lock file alone
@@ -50,7 +54,7 @@ def _is_parquet(out):
     return out.suffix == ".parquet"
 
 
-def read_results(out):
+def read_results(out: str | os.PathLike) -> pd.DataFrame:
     """The rows already in a results file (none if it does not exist). Never writes.
 
     Parameters
@@ -153,14 +157,15 @@ class ResultsFile:
         The rows already there when the file was opened.
     """
 
-    def __init__(self, out):
+    def __init__(self, out: str | os.PathLike) -> None:
         self.out = check_path("out", out)
         if self.out.suffix not in (".csv", ".parquet"):
             raise InputError(f"out must be a .csv or .parquet file name, got {str(self.out)!r}")
         self.existing = pd.DataFrame()
-        self._lock = self._file_lock = None
+        self._lock: Any = None
+        self._file_lock: int | None = None
 
-    def __enter__(self):
+    def __enter__(self) -> ResultsFile:
         from filelock import FileLock, Timeout
 
         if _is_parquet(self.out):
@@ -182,9 +187,8 @@ class ResultsFile:
             raise
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> None:
         self._release()
-        return False
 
     def _in_use(self):
         return InputError(
@@ -224,7 +228,7 @@ class ResultsFile:
                 stacklevel=3,
             )
 
-    def add(self, rows):
+    def add(self, rows: list[dict]) -> None:
         """Append finished runs (dicts with the same keys, in the same order)."""
         if _is_parquet(self.out):
             self.existing = pd.concat([self.existing, pd.DataFrame(rows)], ignore_index=True)
