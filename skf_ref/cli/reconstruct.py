@@ -396,13 +396,12 @@ def _write(
     if args.plot is not None:
         from ..study.plots import plot_estimate
 
-        with atomic_path(args.plot) as tmp:
-            plot_estimate(
-                rec.amplitude(components if components in (1, 3) else 1),
-                times if times is not None else np.arange(rec.n_times),
-                positions if components in (1, 3) else None,
-                title=f"SKF, exponent {args.exponent:g}, "
-                + ("no smoothing" if args.smoother == "none" else args.smoother),
-                path=tmp,
-            )
+        plot_estimate(  # written whole or not at all (atomic_path)
+            rec.amplitude(components if components in (1, 3) else 1),
+            times if times is not None else np.arange(rec.n_times),
+            positions if components in (1, 3) else None,
+            title=f"SKF, exponent {args.exponent:g}, "
+            + ("no smoothing" if args.smoother == "none" else args.smoother),
+            path=args.plot,
+        )
     return written

@@ -2,22 +2,26 @@
 
 Readers return the arrays with what the format knows about them (channel names, source
 positions, times) and, for MNE files, the MNE object; a file that cannot be used raises an
-:class:`~skf_ref.InputError` naming the file and what is wrong. Writers go through a
-temporary file and a rename, so a result is whole or absent.
+:class:`~skf_ref.InputError` naming the file and what is wrong; channel names are one per
+row, none twice. Writers check their path first and go through a temporary file and a
+rename, so a result is whole or absent (:mod:`skf_ref._utils.atomic_files`).
 
 =============  =========================================================================
 format         read as
 =============  =========================================================================
 ``.npy``       the array
 ``.npz``       the array under ``key`` (or the only one, or a conventional name);
-               ``ch_names``, ``positions`` and ``times`` when present
+               ``ch_names``, ``positions`` and ``times`` when present; nothing else is
+               read (:mod:`skf_ref.io.variables`)
 ``.mat``       MATLAB v5 (``scipy.io.loadmat``) and v7.3 (HDF5, ``pymatreader``), the
-               variable ``key`` (or the only one, or a conventional name)
+               variable ``key`` (or the only one, or a conventional name); a matrix keeps
+               both dimensions (32 x 1 stays 32 x 1)
 ``.csv``       data only: channels in rows, times in columns; optionally channel names
-               in the first column and times in seconds in the first row (as
-               ``DataFrame(Y, index=names, columns=times).to_csv()`` writes it), or
-               numbers only (``np.savetxt``); the layout is read off the content and a
-               file that fits none is refused (:mod:`skf_ref.io.tables`)
+               (or row labels) in the first column and times in seconds in the first row
+               (as ``DataFrame(Y, index=names, columns=times).to_csv()`` writes it), or
+               numbers only (``np.savetxt``), cut by commas, semicolons, tabs or spaces;
+               the layout is read off the content, on evidence, and what could be read
+               two ways is refused saying how to tell (:mod:`skf_ref.io.tables`)
 ``-fwd.fif``   lead field: ``mne.read_forward_solution`` (free orientation in MNE's x, y,
                z head coordinates); channel names and source positions kept
 ``-ave.fif``   data: ``mne.read_evokeds`` (``condition``: name or index)

@@ -16,9 +16,12 @@ def figure(width, height):
 
 def finish(fig, path):
     """Save ``fig`` to ``path`` if given (no software stamp: the same figure, the same
-    bytes), and return it."""
+    bytes; whole or absent, through a temporary file), and return it."""
     if path is not None:  # no software version in the file: the same figure, the same bytes
-        fig.savefig(path, dpi=DPI, metadata={"Software": None})
+        from ..._utils.atomic_files import atomic_path
+
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=DPI, metadata={"Software": None})
     return fig
 
 
