@@ -236,3 +236,20 @@ def test_a_temporary_folder_is_removed_after_and_marked_while(tmp_path, dead_pid
     (users / "data.txt").write_text("kept")
     assert remove_stale_temporaries(tmp_path / "x.stc") == []
     assert (users / "data.txt").exists()
+
+
+@pytest.mark.parametrize("name", ["run1.h5", "run1-skf"])
+def test_apply_skf_raw_refuses_a_store_name_of_another_format_before_any_work(
+    tmp_path, mne_setup, name
+):
+    import mne
+
+    from skf_ref import apply_skf_raw, make_skf_operator
+
+    info = mne_setup["info"]
+    raw = mne.io.RawArray(np.zeros((len(info.ch_names), 50)), info, verbose=False)
+    raw.set_eeg_reference("average", projection=True, verbose=False)
+    operator = make_skf_operator(raw.info, mne_setup["forward"], noise_std=1e-6, verbose=False)
+    with pytest.raises(InputError, match=rf"{name}: a zarr store \(a folder\) is written to a"):
+        apply_skf_raw(raw, operator, out=tmp_path / name)
+    assert not any(tmp_path.iterdir())

@@ -4,7 +4,7 @@ Readers return the arrays with what the format knows about them (channel names, 
 positions, times) and, for MNE files, the MNE object; a file that cannot be used raises an
 :class:`~skf_ref.InputError` naming the file and what is wrong; channel names are one per
 row, none twice. Writers check their path first and go through a temporary file and a
-rename, so a result is whole or absent (:mod:`skf_ref._utils.atomic_files`).
+rename, so a result is whole or absent.
 
 =============  =========================================================================
 format         read as

@@ -217,10 +217,10 @@ def new_store(
 
     The store is marked (:data:`STORE_MARK`, with an id of its own) as this package's, so
     that ``overwrite`` may replace it later; nothing else is ever deleted. The rename
-    never replaces anything (:func:`_publish`): of two processes writing the same
-    ``path``, one wins and the other gets an error. If the block raises, the temporary
-    goes; if the process is killed, the next call for the same ``path`` finishes or
-    removes what it left.
+    never replaces anything: of two processes writing the same ``path``, one wins and the
+    other gets an error (what appeared at ``path`` meanwhile stays as it is). If the block
+    raises, the temporary goes; if the process is killed, the next call for the same
+    ``path`` finishes or removes what it left.
 
     Parameters
     ----------
