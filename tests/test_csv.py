@@ -268,3 +268,11 @@ def test_one_channel_and_one_sample(tmp_path):
     assert read_data(path).data.shape == (1, 20)
     np.savetxt(path, Y[:, :1])
     assert read_data(path).data.shape == (8, 1)
+
+
+def test_a_single_named_row_is_a_channel_whatever_its_numbers(tmp_path):
+    path = tmp_path / "x.csv"
+    path.write_text("Fp1,1,2,3,4\n")  # no data row under it: a header over nothing is none
+    read = read_data(path)
+    assert read.ch_names == ["Fp1"] and read.times is None
+    np.testing.assert_array_equal(read.data, [[1, 2, 3, 4]])

@@ -145,10 +145,24 @@ def _quiet_interrupts(hook):
     return unraisable
 
 
+def _save_coverage():
+    """Save a coverage measurement of this process (a test run's), if one is running: its
+    own exit handler, registered before :func:`_exit_after_handlers`, never runs."""
+    coverage = sys.modules.get("coverage")
+    current = getattr(getattr(coverage, "Coverage", None), "current", lambda: None)()
+    if current is not None:
+        current.stop()
+        current.save()
+
+
 def _exit_after_handlers(status, _exit=os._exit):
     """The last exit handler (registered first): flush and end with ``status[0]``, before
     the interpreter resets its signal handlers (a Ctrl-C then would kill the process
     without a word) or turns an interruption it saw into a signal of its own."""
+    try:
+        _save_coverage()
+    except Exception:  # never fail the exit for a measurement
+        pass
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()

@@ -279,7 +279,8 @@ def _layout(first: list[str], first_column: list[str], n_fields: int, sfreq, pat
         return True, True, _header_times(first[1:], sfreq, path)
     if names or not body:
         if _number(first[0]) is None:  # a named channel, unless its numbers say otherwise
-            _first_row_kind(first[1:], first[0], sfreq, path)  # refuses a row like times
+            if body:  # (one line is a channel: a header over nothing is none)
+                _first_row_kind(first[1:], first[0], sfreq, path)  # refuses a row like times
             return False, True, None
         if body:
             raise InputError(f"{path}: the rows are named but not the first; {_CSV_LAYOUT}")
