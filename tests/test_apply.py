@@ -4,8 +4,8 @@ import mne
 import numpy as np
 import pytest
 
-from skf_ref import InputError, InputTypeError, apply_skf, reconstruct
-from skf_ref.io.apply import prepare
+from skf_ref import InputError, InputTypeError, apply_skf, make_skf_operator, reconstruct
+from skf_ref.io import make_stc
 
 # Two computations of the same whitened model (MNE's whitener and an eigendecomposition
 # here, or a projection and a whitening) differ by rounding amplified by cond(S) < 1e4.
@@ -26,21 +26,23 @@ def relative(a, b):
 def test_whitening_reduces_to_the_covariance_rank(problem):
     setup, evoked, cov = problem
     stc, rec = apply_skf(evoked, setup["forward"], cov, return_reconstruction=True, **SETTINGS)
-    # independent: project the average reference out of C, keep its 63 nonzero eigenvalues
+    # independent: project the average reference out of C / nave (the covariance of an
+    # average of nave trials), keep its 63 nonzero eigenvalues; the priors, from the SNRs
+    # on this whitened lead field, are nave times smaller than the operator's
+    nave = evoked.nave
     names = evoked.ch_names
     index = [cov["names"].index(name) for name in names]
-    C = cov.data[np.ix_(index, index)]
+    C = cov.data[np.ix_(index, index)] / nave
     P = np.eye(64) - 1 / 64
     eigenvalues, eigenvectors = np.linalg.eigh(P @ C @ P)
     W = (eigenvectors[:, 1:] / np.sqrt(eigenvalues[1:])).T  # rank 63: the smallest is 0
     L = setup["forward"]["sol"]["data"]
-    ours = reconstruct(
-        W @ L, W @ evoked.data, noise_std=1.0, theta0=rec.theta0, q=rec.q, **_skf(SETTINGS)
-    )
-    assert (
-        rec.n_times == evoked.data.shape[1] and prepare(evoked, setup["forward"], cov).rank == 63
-    )
+    theta0, q = rec.theta0 / nave, rec.q / nave
+    ours = reconstruct(W @ L, W @ evoked.data, noise_std=1.0, theta0=theta0, q=q, **_skf(SETTINGS))
+    operator = make_skf_operator(evoked.info, setup["forward"], cov, verbose=False)
+    assert rec.n_times == evoked.data.shape[1] and operator.rank == 63 and nave == 30
     assert relative(rec.z, ours.z) < ROUTE_RTOL
+    assert relative(rec.x / np.sqrt(nave), ours.x) < ROUTE_RTOL  # the state, sqrt(nave) x
     np.testing.assert_allclose(stc.data, ours.amplitude(3), rtol=1e-8)
     assert isinstance(stc, mne.VolSourceEstimate)
     np.testing.assert_allclose(stc.times, evoked.times)
@@ -52,10 +54,11 @@ def _skf(settings):
 
 
 def test_a_noise_level_equals_the_average_referenced_arrays(problem):
-    # noise_cov=sigma: whitening by sigma on the 63-dim range of the projector is the same
-    # model as R = sigma^2 I on projected data (the constant direction carries nothing)
+    # noise_std=sigma of one trial: whitening by sigma / sqrt(nave) on the 63-dim range of
+    # the projector is the same model as R = sigma^2 / nave I on projected data (the
+    # constant direction carries nothing), with priors nave times smaller (docs/model.md §4)
     setup, evoked, _ = problem
-    sigma = 1e-6
+    sigma, nave = 1e-6, evoked.nave
     stc, rec = apply_skf(
         evoked, setup["forward"], noise_std=sigma, return_reconstruction=True, **SETTINGS
     )
@@ -63,12 +66,13 @@ def test_a_noise_level_equals_the_average_referenced_arrays(problem):
     arrays = reconstruct(
         L - L.mean(axis=0),
         Y - Y.mean(axis=0),
-        noise_std=sigma,
-        theta0=rec.theta0,
-        q=rec.q,
+        noise_std=sigma / np.sqrt(nave),
+        theta0=rec.theta0 / nave,
+        q=rec.q / nave,
         **_skf(SETTINGS),
     )
-    assert relative(rec.z, arrays.z) < ROUTE_RTOL and relative(rec.x, arrays.x) < ROUTE_RTOL
+    assert relative(rec.z, arrays.z) < ROUTE_RTOL
+    assert relative(rec.x / np.sqrt(nave), arrays.x) < ROUTE_RTOL
 
 
 def test_channel_order_bad_channels_and_extra_forward_channels(problem):
@@ -228,19 +232,19 @@ def test_no_common_channel_and_nan(problem):
 def test_to_stc_from_arrays(mne_setup, problem):
     setup, evoked, cov = problem
     stc, rec = apply_skf(evoked, setup["forward"], cov, return_reconstruction=True)
-    again = rec.to_stc(setup["forward"]["src"], evoked.times[0], 1e-3)
+    again = make_stc(rec, setup["forward"]["src"], evoked.times[0], 1e-3)
     np.testing.assert_array_equal(again.data, stc.data)
-    vector = rec.to_stc(setup["forward"]["src"], evoked.times[0], 1e-3, pick_ori="vector")
+    vector = make_stc(rec, setup["forward"]["src"], evoked.times[0], 1e-3, pick_ori="vector")
     np.testing.assert_allclose(np.linalg.norm(vector.data, axis=1), stc.data, rtol=1e-12)
-    with pytest.warns(FutureWarning, match="kind= is now pick_ori="):  # the 0.2 spelling
-        old = rec.to_stc(setup["forward"]["src"], evoked.times[0], 1e-3, kind="amplitude")
-    np.testing.assert_array_equal(old.data, stc.data)
     fixed = reconstruct(np.eye(4, 1254) + 1, np.ones((4, 2)), noise_std=1, theta0=1, q=1)
     with pytest.raises(InputError, match="pick_ori='vector' needs free orientation"):
-        fixed.to_stc(setup["forward"]["src"], 0.0, 1e-3, pick_ori="vector")
+        make_stc(fixed, setup["forward"]["src"], 0.0, 1e-3, pick_ori="vector")
     with pytest.raises(InputError, match="pick_ori must be one of"):
-        rec.to_stc(setup["forward"]["src"], 0.0, 1e-3, pick_ori="normal")
+        make_stc(rec, setup["forward"]["src"], 0.0, 1e-3, pick_ori="normal")
     with pytest.raises(InputError, match="has 1254 positions, so it needs 1254"):
-        reconstruct(np.eye(4, 10) + 1, np.ones((4, 2)), noise_std=1, theta0=1, q=1).to_stc(
-            setup["forward"]["src"], 0.0, 1e-3
+        make_stc(
+            reconstruct(np.eye(4, 10) + 1, np.ones((4, 2)), noise_std=1, theta0=1, q=1),
+            setup["forward"]["src"],
+            0.0,
+            1e-3,
         )

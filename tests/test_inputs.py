@@ -103,8 +103,12 @@ CASES = {
     ),
     "Y 1-D": (_with("Y", lambda k: k["Y"][:, 0]), ValueError, r"Y must have shape"),
     "Y no time step": (_with("Y", np.zeros((M, 0))), ValueError, "Y must have at least one"),
-    "Y NaN": (_bad_entry("Y", np.nan), ValueError, "Y contains NaN or Inf"),
-    "Y Inf": (_bad_entry("Y", -np.inf), ValueError, "Y contains NaN or Inf"),
+    "Y NaN": (
+        _bad_entry("Y", np.nan),
+        ValueError,
+        r"Y\[:, \d+\] is NaN in 1 of its \d+ channels: a step is either measured on every",
+    ),
+    "Y Inf": (_bad_entry("Y", -np.inf), ValueError, r"Y contains Inf \(first in column \d+\)"),
     "noise_std zero": (_with("noise_std", 0.0), ValueError, "noise_std must be > 0"),
     "noise_std negative": (_with("noise_std", -0.1), ValueError, "noise_std must be > 0"),
     "noise_std NaN": (_with("noise_std", np.nan), ValueError, "noise_std must be finite"),
@@ -247,6 +251,52 @@ def test_filter_class_checks_its_exponent(exponent, error, match):
 
     with pytest.raises(error, match=match):
         StandardizedKalmanFilter(dim_x=3, dim_z=2, exponent=exponent)
+
+
+def test_a_zero_transition_needs_process_noise():
+    # P_{1|0} = A P_0 A^T + Q is 0 when both A and Q are: refused
+    with pytest.raises(ValueError, match="q must be > 0 when transition is 0"):
+        reconstruct(**_with("q", 0.0)(), transition=0.0)
+
+
+def test_a_zero_transition_matrix_needs_process_noise():
+    with pytest.raises(ValueError, match="q must be > 0 when transition is 0"):
+        reconstruct(**_with("q", 0.0)(), transition=np.zeros((N, N)))
+
+
+# Either of A and Q nonzero is a model: each case below alone (a static state, white
+# sources, matrices of either) must run, and pins one clause of the guard above.
+
+
+def test_a_static_state_needs_no_process_noise():
+    static = reconstruct(**_with("q", 0.0)(), transition=1.0)  # q = 0, A = I
+    np.testing.assert_allclose(static.x_filtered[:, -1], static.x[:, -1])
+
+
+def test_a_static_state_of_a_matrix_transition_needs_no_process_noise():
+    rec = reconstruct(**_with("q", 0.0)(), transition=0.5 * np.eye(N), method="dense")
+    assert np.isfinite(rec.z).all()
+
+
+def test_white_sources_need_no_transition():
+    rec = reconstruct(**_valid(), transition=0.0)  # q > 0, A = 0
+    assert np.isfinite(rec.z).all()
+
+
+def test_white_sources_need_no_transition_matrix():
+    rec = reconstruct(**_valid(), transition=np.zeros((N, N)), method="dense")
+    np.testing.assert_allclose(rec.z, reconstruct(**_valid(), transition=0.0).z, rtol=1e-12)
+
+
+def test_a_process_noise_matrix_without_transition():
+    rec = reconstruct(**_with("q", 0.1 * np.eye(N))(), transition=0.0, method="dense")
+    scalar = reconstruct(**_valid(), transition=0.0, method="dense")
+    np.testing.assert_allclose(rec.z, scalar.z, rtol=1e-12)
+
+
+def test_a_process_noise_matrix_with_a_random_walk():
+    rec = reconstruct(**_with("q", 0.1 * np.eye(N))(), transition=1.0, method="dense")
+    np.testing.assert_allclose(rec.z, reconstruct(**_valid(), method="dense").z, rtol=1e-12)
 
 
 # --- memory_limit: one check for every entry point that takes one --------------------------

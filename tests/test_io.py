@@ -283,7 +283,7 @@ def test_every_writer_names_a_swapped_or_wrong_argument(tmp_path, mne_setup):
             "reconstruction",
         ),
         "to_zarr(path, rec)": (lambda: to_zarr(path.with_suffix(".zarr"), rec), "path"),
-        "rec.to_zarr(3)": (lambda: rec.to_zarr(3), "path"),
+        "to_zarr(rec, 3)": (lambda: to_zarr(rec, 3), "path"),
         "stc_to_zarr(rec, src, None, ...)": (
             lambda: stc_to_zarr(rec, mne_setup["forward"]["src"], None, 0.0, 1e-3),
             "path",

@@ -8,10 +8,9 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[1] / "skf_ref"
 #: The layers, lowest first: a module may import its own layer and those before it.
 LAYERS = ("_utils", "method", "io", "conformance", "study", "cli")
-#: The one kind of import that reaches up, and why: the result type's conveniences load the
-#: bridge to MNE objects and files when called (``rec.to_stc(...)``, ``rec.to_zarr(...)``),
-#: as MNE's own objects have ``.plot()``; nothing of the method needs them.
-UPWARD = {("method", "result"): {("io", "stc"), ("io", "zarr_dask")}}
+#: Imports that reach up, each with its reason: none. (The result type's conveniences
+#: ``to_stc``, ``to_zarr`` and ``to_dask`` were the last; ``skf_ref.io`` is their one route.)
+UPWARD: dict[tuple[str, ...], set[tuple[str, ...]]] = {}
 #: Files at the top of the package besides the layers.
 TOP = {"__init__.py", "version.py"}
 

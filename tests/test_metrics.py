@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from skf_ref.method.result import amplitude_from_components
+from skf_ref.method import amplitude_from_components
 from skf_ref.study import metrics, regions
 
 # A line of positions 5 mm apart along x (metres): distances between them are exact.

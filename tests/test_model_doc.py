@@ -37,7 +37,7 @@ MAX_CONDITION = 20.0
 SECTIONS = (1, 2, 3, 4, 5, 6, 7, 8)
 
 # The packages whose modules the document names by their own name ("dense.rts").
-PACKAGES = ("skf_ref.method.paths", "skf_ref.method", "skf_ref.study")
+PACKAGES = ("skf_ref.method._paths", "skf_ref.method", "skf_ref.study")
 MODULES = tuple(
     info.name
     for package in PACKAGES

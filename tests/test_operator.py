@@ -20,7 +20,7 @@ from skf_ref import (
     apply_skf_raw,
     make_skf_operator,
 )
-from skf_ref.method.paths import singular_basis, spectral
+from skf_ref.method._paths import singular_basis, spectral
 
 SETTINGS = dict(exponent=1.25, smoother="rts-standardized")
 # Blocks of rows and whole arrays compute the same products in another order (the
@@ -181,7 +181,11 @@ def test_what_the_operator_cannot_use_is_refused(problem, operator):
     with pytest.raises(InputError, match="noise_cov='baseline' needs the data"):
         make_skf_operator(evoked.info, setup["forward"], "baseline")
     with pytest.raises(InputError, match="meg=False and eeg=False pick no channel"):
+        make_skf_operator(evoked.info, setup["forward"], cov, meg=False, eeg=False)
+    with pytest.raises(InputError, match=r"no MEG channel is common .* types: eeg\)"):
         make_skf_operator(evoked.info, setup["forward"], cov, eeg=False)
+    with pytest.raises(InputError, match="meg=True asks for grad/mag channels, but none"):
+        make_skf_operator(evoked.info, setup["forward"], cov, meg=True)
 
 
 # --- the noise covariance ---------------------------------------------------------------
@@ -300,14 +304,16 @@ def test_channel_types_are_picked_by_argument(meg_eeg):
     evoked, forward, cov = meg_eeg
     grad = make_skf_operator(evoked.info, forward, cov, meg="grad", verbose=False)
     assert len(grad.ch_names) == 204 + 60 and len(grad.eeg_names) == 60
-    eeg_only = make_skf_operator(evoked.info, forward, cov, verbose=False)
+    shared = make_skf_operator(evoked.info, forward, cov, verbose=False)
+    assert len(shared.ch_names) == 366 and shared.rank == 365  # as apply_inverse takes them
+    eeg_only = make_skf_operator(evoked.info, forward, cov, meg=False, verbose=False)
     assert len(eeg_only.ch_names) == 60 and eeg_only.rank == 59
     stds = {"eeg": 1e-6, "grad": 1e-11, "mag": 1e-12}
     both = make_skf_operator(evoked.info, forward, noise_std=stds, meg=True, verbose=False)
     assert both.rank == 365 and np.isfinite(apply_skf(evoked, both).data).all()
-    with pytest.raises(InputError, match="noise_std must be a dict .* when MEG is used"):
+    with pytest.raises(InputError, match=r"noise_std must be a dict naming each channel type"):
         make_skf_operator(evoked.info, forward, noise_std=1e-6, meg=True)
-    with pytest.raises(InputError, match=r"meg must be True, False, 'mag' or 'grad'"):
+    with pytest.raises(InputError, match=r"meg must be None, True, False, 'mag' or 'grad'"):
         make_skf_operator(evoked.info, forward, cov, meg="planar")
 
 
@@ -322,3 +328,72 @@ def test_an_indefinite_covariance_is_not_told_to_be_whitened():
     singular = np.diag([1.0, 1.0, 1.0, 1.0, 1.0, 0.0])
     with pytest.raises(InputError, match="whitened to its rank .* skf-ref reconstruct --forward"):
         reconstruct(L, Y, noise_cov=singular, theta0=1.0, q=0.1)
+
+
+def test_the_types_come_from_the_data(meg_eeg):
+    # an MEG-only evoked just works (as apply_inverse): the types the data, the forward and
+    # the covariance share; meg=/eeg= restrict them
+    evoked, forward, cov = meg_eeg
+    meg_only = evoked.copy().pick("meg")
+    # MEG is blind to a radial dipole: leave out the grid's positions on the sphere's axes,
+    # whose x, y or z column is radial
+    grid = forward["src"][0]
+    rr = grid["rr"][grid["vertno"]]
+    off_axis = rr[np.sum(np.abs(rr) > 1e-9, axis=1) > 1]
+    normals = np.tile([0.0, 0.0, 1.0], (len(off_axis), 1))
+    sphere = mne.make_sphere_model((0.0, 0.0, 0.0), 0.09, meg_only.info, verbose=False)
+    src = mne.setup_volume_source_space(
+        pos=dict(rr=off_axis, nn=normals), sphere=sphere, verbose=False
+    )
+    meg_forward = mne.make_forward_solution(meg_only.info, None, src, sphere, verbose=False)
+    stc, rec = apply_skf(meg_only, meg_forward, cov, return_reconstruction=True)
+    operator = make_skf_operator(meg_only.info, meg_forward, cov, verbose=False)
+    assert len(operator.ch_names) == 306 and operator.eeg_names == []
+    np.testing.assert_array_equal(apply_skf(meg_only, operator).data, stc.data)
+    with pytest.raises(InputError, match="eeg=True asks for eeg channels, but none is common"):
+        make_skf_operator(meg_only.info, meg_forward, cov, eeg=True)
+    mag = make_skf_operator(evoked.info, forward, cov, meg="mag", verbose=False)
+    assert set(mag.ch_types) == {"mag", "eeg"} and len(mag.ch_names) == 102 + 60
+    with pytest.raises(InputError, match=r"lacks \['mag', 'grad'\] \(no type is given a def"):
+        make_skf_operator(evoked.info, forward, noise_std={"eeg": 1e-6})
+    with pytest.raises(InputError, match=r"noise_std must be a dict naming each channel type"):
+        make_skf_operator(meg_only.info, meg_forward, noise_std=1e-12)
+    grad = make_skf_operator(meg_only.info, meg_forward, noise_std=1e-11, meg="grad")
+    assert set(grad.ch_types) == {"grad"}  # one type: one number will do
+
+
+@pytest.mark.filterwarnings("ignore:tune. (pm|ep)_snr_db")
+def test_priors_searched_over_a_range(problem):
+    setup, epochs, cov = problem
+    evoked = epochs.average()
+    operator = make_skf_operator(evoked.info, setup["forward"], cov, pm_snr_db=[-40, 20],
+                                 verbose=False)  # fmt: skip
+    assert operator.pm_snr_db == (-40.0, 20.0) and "searched in (-40, 20) dB" in repr(operator)
+    stc, rec = apply_skf(evoked, operator, return_reconstruction=True)
+    assert -40 <= rec.tuning.pm_snr_db <= 20 and rec.tuning.ep_snr_db == 20.0
+    once = apply_skf(evoked, setup["forward"], cov, pm_snr_db=(-40, 20))
+    np.testing.assert_array_equal(once.data, stc.data)
+    for value, match in [
+        ((20, -40), r"pm_snr_db must be a range \(low, high\) with low < high, got \(20, -40\)"),
+        ((1, 2, 3), r"pm_snr_db must be a number \(dB\), 'auto' or a search range"),
+        ("best", r"pm_snr_db must be a number \(dB\), 'auto' or a search range"),
+        ((-400, 0), r"pm_snr_db\[0\] must be >= -300 dB"),
+    ]:
+        with pytest.raises(InputError, match=match):
+            make_skf_operator(evoked.info, setup["forward"], cov, pm_snr_db=value)
+
+
+def test_a_bound_warning_names_the_remedy_on_every_route(problem):
+    setup, epochs, cov = problem
+    evoked = epochs.average()
+    remedy = r"widen pm_snr_db (above|below) -?\d+ dB to let the data choose: pm_snr_db=\("
+    remedy += r".*\) in Python \(tune, apply_skf, make_skf_operator\) or --pm-snr-db=-?\d+,-?\d+ "
+    with pytest.warns(UserWarning, match=remedy + "on the command line"):
+        apply_skf(evoked, setup["forward"], cov, pm_snr_db=(-40, -39))
+
+
+def test_an_operator_shows_itself_in_a_notebook(operator):
+    html = operator._repr_html_()
+    assert html.startswith("<table>") and html.endswith("</table>")
+    for cell in ("<th", "64 (64 eeg)", ">63<", "0 dB", "20 dB", "free orientation"):
+        assert cell in html

@@ -17,6 +17,7 @@ from skf_ref._utils.atomic_files import (
     rename_noreplace,
     temporary_folder,
 )
+from skf_ref.io import to_zarr
 
 
 def _rec(n=60, T=5):
@@ -122,13 +123,13 @@ def test_rename_noreplace_never_replaces_even_an_empty_folder(tmp_path):
 @pytest.mark.parametrize("name", ["x.h5", "x.npz", "x", "x.zarr.zip"])
 def test_a_store_is_written_only_to_a_name_ending_in_zarr(tmp_path, name):
     with pytest.raises(InputError, match=r"a zarr store \(a folder\) is written to a name ending"):
-        _rec().to_zarr(tmp_path / name)
+        to_zarr(_rec(), tmp_path / name)
     assert not any(tmp_path.iterdir())
 
 
 def _while_writing(monkeypatch, action):
     """Run ``action`` once the first block is computed, as another process would."""
-    from skf_ref.method.result import Reconstruction
+    from skf_ref import Reconstruction
 
     original = Reconstruction.blocks
 
@@ -144,9 +145,9 @@ def _while_writing(monkeypatch, action):
 
 def test_two_writers_of_one_store_one_wins_the_other_is_told(tmp_path, monkeypatch):
     path, other = tmp_path / "r.zarr", _rec(n=40)
-    _while_writing(monkeypatch, lambda: other.to_zarr(path, chunks=10))  # it finishes first
+    _while_writing(monkeypatch, lambda: to_zarr(other, path, chunks=10))  # it finishes first
     with pytest.raises(InputError, match=r"r.zarr appeared while this store was written"):
-        _rec().to_zarr(path, chunks=10)
+        to_zarr(_rec(), path, chunks=10)
     monkeypatch.undo()
     import zarr
 
@@ -162,7 +163,7 @@ def test_a_folder_of_the_user_s_that_appears_meanwhile_is_never_touched(
 
     path = tmp_path / "r.zarr"
     if overwrite:
-        _rec().to_zarr(path)  # the store overwrite=True may replace...
+        to_zarr(_rec(), path)  # the store overwrite=True may replace...
 
     def users_folder():  # ...replaced meanwhile by a folder of the user's (even empty)
         shutil.rmtree(path, ignore_errors=True)
@@ -171,7 +172,7 @@ def test_a_folder_of_the_user_s_that_appears_meanwhile_is_never_touched(
 
     _while_writing(monkeypatch, users_folder)
     with pytest.raises(InputError, match=r"r.zarr (appeared|changed) while this store was"):
-        _rec().to_zarr(path, chunks=10, overwrite=overwrite)
+        to_zarr(_rec(), path, chunks=10, overwrite=overwrite)
     assert (path / "notes.txt").read_text() == "the user's"
     assert [p.name for p in tmp_path.iterdir()] == ["r.zarr"]
 
@@ -180,8 +181,8 @@ def test_overwrite_replaces_the_store_it_checked(tmp_path):
     import zarr
 
     path = tmp_path / "r.zarr"
-    _rec(n=40).to_zarr(path)
-    _rec().to_zarr(path, arrays=("weights",), overwrite=True)
+    to_zarr(_rec(n=40), path)
+    to_zarr(_rec(), path, arrays=("weights",), overwrite=True)
     store = zarr.open_group(path, mode="r")
     assert list(store.array_keys()) == ["weights"] and store["weights"].shape == (60, 5)
     assert [p.name for p in tmp_path.iterdir()] == ["r.zarr"]

@@ -41,7 +41,9 @@ def _referenced(evoked, projection, how, tmp_path):
         return mne.read_evokeds(tmp_path / "r-ave.fif", proj=False, verbose=False)[0]
     if how == "float32":
         data = referenced.data.astype(np.float32)
-        return mne.EvokedArray(data, referenced.info, tmin=referenced.times[0], verbose=False)
+        return mne.EvokedArray(
+            data, referenced.info, tmin=referenced.times[0], nave=referenced.nave, verbose=False
+        )
     return referenced
 
 
@@ -112,6 +114,8 @@ def test_float32_referenced_data_with_an_unreferenced_lead_field_are_refused():
 def test_a_float32_evoked_array_is_accepted(evoked, by_projector, mne_setup):
     referenced = evoked.copy().set_eeg_reference("average", verbose=False)
     info = mne.create_info(evoked.ch_names, evoked.info["sfreq"], "eeg")  # no custom flag
-    array = mne.EvokedArray(referenced.data.astype(np.float32), info, tmin=evoked.times[0])
+    array = mne.EvokedArray(
+        referenced.data.astype(np.float32), info, tmin=evoked.times[0], nave=evoked.nave
+    )
     stc = apply_skf(array, mne_setup["forward"], noise_std=5e-6)
     assert relative(stc.data, by_projector) < REFERENCE_RTOL

@@ -11,9 +11,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from skf_ref import priors_from_snr, reconstruct
-from skf_ref.method.model import StateSpaceModel
-from skf_ref.method.paths import dense
-from skf_ref.method.paths.spectral import SpectralModel
+from skf_ref.method import SpectralModel, StateSpaceModel
+from skf_ref.method._paths import dense
 
 # Both paths are exact algebra, so they differ by rounding only, and rounding grows with the
 # condition numbers kappa of S_t and P_{t|t-1}: the dense path solves with S and takes eigh
@@ -174,9 +173,9 @@ def test_outputs_are_computed_on_access_only():
     rec = reconstruct(
         rng.standard_normal((4, 30)), rng.standard_normal((4, 3)), noise_std=1.0, theta0=1.0, q=1.0
     )
-    assert all(callable(v) for v in rec._arrays.values())
+    assert not any(rec.computed(name) for name in ("z", "x", "weights"))
     assert rec.z.shape == (30, 3)
-    assert not callable(rec._arrays["z"]) and callable(rec._arrays["weights"])
+    assert rec.computed("z") and not rec.computed("weights")
     assert rec.z is rec.z  # computed once, then kept
 
 
@@ -186,7 +185,7 @@ def test_backward_in_chunks_equals_the_step_by_step_recursion(n_times, transitio
     # narrow arrays take CHUNK_STEPS steps per matrix product: the same linear map, each
     # number a combination of at most CHUNK_STEPS + 1 terms with coefficients <= 1 / a
     # (gains below 1 / a, as the filter's are), so rounding stays at a few eps
-    from skf_ref.method.paths.recursions import CHUNK_COLUMNS, backward
+    from skf_ref.method._paths.recursions import CHUNK_COLUMNS, backward
 
     rng = np.random.default_rng(n_times)
     gain = rng.uniform(0.05, 0.99, n_times - 1) / transition
@@ -206,7 +205,7 @@ def test_backward_in_chunks_equals_the_step_by_step_recursion(n_times, transitio
 )
 def test_thin_svd_in_blocks_against_numpy(monkeypatch, n_channels, n_sources, block_rows):
     # the first stage's blocks: one, many, a last one narrower than n_channels, wide ones
-    from skf_ref.method.paths import singular_basis as singular
+    from skf_ref.method._paths import singular_basis as singular
 
     monkeypatch.setattr(singular, "_SVD_BLOCK_BYTES", 8 * n_channels * block_rows)
     rng = np.random.default_rng(n_sources)
@@ -239,7 +238,7 @@ def test_thin_svd_in_blocks_against_numpy(monkeypatch, n_channels, n_sources, bl
 
 @pytest.mark.parametrize("exponent", [0.0, 0.5, 0.75, 1.0, 1.25, 2.0, 0.3, 4.5])
 def test_standardized_means_equal_the_z_of_standardize(exponent):
-    from skf_ref.method.standardization import standardize, standardized_means
+    from skf_ref.method._standardization import standardize, standardized_means
 
     rng = np.random.default_rng(3)
     w, whitened = rng.uniform(1e-3, 10.0, (5, 40)), rng.standard_normal((5, 40))
@@ -250,7 +249,8 @@ def test_standardized_means_equal_the_z_of_standardize(exponent):
 
 
 def test_time_major_tiles_cover_every_entry_once_in_wide_runs():
-    from skf_ref.method.paths.spectral_rows import TIME_MAJOR_COLUMNS, _tiles
+    from skf_ref.method._paths.tiles import TIME_MAJOR_COLUMNS
+    from skf_ref.method._paths.tiles import tiles as _tiles
 
     n, T = 2 * TIME_MAJOR_COLUMNS + 5, 300
     for target, width in ((np.empty((T, n)).T, TIME_MAJOR_COLUMNS), (np.empty((n, T)), None)):
@@ -267,8 +267,176 @@ def test_time_major_tiles_cover_every_entry_once_in_wide_runs():
 
 @pytest.mark.parametrize("order", ["C", "F"])
 def test_amplitude_on_worker_threads_equals_the_norm(order):
-    from skf_ref.method.result import amplitude_from_components
+    from skf_ref.method import amplitude_from_components
 
     z = np.asarray(np.random.default_rng(3).standard_normal((3 * 700, 900)), order=order)
     expected = np.linalg.norm(z.reshape(700, 3, 900), axis=1)
     np.testing.assert_allclose(amplitude_from_components(z, 3), expected, rtol=1e-15)
+
+
+# --- deterministic cases: each part of the recursions on fixed problems ------------------
+# (the hypothesis test above draws many models; these pin each piece of the recursions, the
+# gains on span V and on its complement, the steady state and the numerical rank, on
+# problems chosen to exercise it, so that a mistake in one is caught without luck)
+
+#: Spectral and dense paths on these well-conditioned fixed problems: rounding only.
+FIXED_RTOL = 1e-10
+
+
+def fixed_problem(seed=5, m=5, n=9, T=30, transition=1.0):
+    rng = np.random.default_rng(seed)
+    L = rng.standard_normal((m, n))
+    Y = L @ np.cumsum(0.3 * rng.standard_normal((n, T)), axis=1) + rng.standard_normal((m, T))
+    theta0, q = priors_from_snr(L, 1.0, pm_snr_db=0.0, ep_snr_db=10.0, n_steps=30)
+    return dict(L=L, Y=Y, noise_std=1.0, theta0=theta0, q=q, transition=transition)
+
+
+def _agree_with_dense(problem, **settings):
+    spectral = reconstruct(**problem, **settings, method="spectral")
+    reference = reconstruct(**problem, **settings, method="dense")
+    for name in QUANTITIES:
+        assert relative(getattr(spectral, name), getattr(reference, name)) <= FIXED_RTOL, name
+    assert spectral.log_likelihood == pytest.approx(reference.log_likelihood, rel=FIXED_RTOL)
+    return spectral
+
+
+@pytest.mark.parametrize("smoother", [None, "rts-standardized", "rts-state"])
+@pytest.mark.parametrize("transition", [1.0, 0.8, -0.5, 1.1])
+def test_transient_fixed_problems_equal_the_dense_path(transition, smoother):
+    # 12 steps: the recursions never settle, every gain is its own
+    problem = fixed_problem(T=12, transition=transition)
+    rec = _agree_with_dense(problem, smoother=smoother, exponent=1.25)
+    assert not rec.lazy_outputs.recursions.held
+
+
+@pytest.mark.parametrize("smoother", [None, "rts-standardized", "rts-state"])
+@pytest.mark.parametrize("transition", [1.0, 0.8, -0.5])
+def test_settled_fixed_problems_equal_the_dense_path(transition, smoother):
+    # 200 steps, held from step 40-80: the held gains, weights and log-determinants
+    problem = fixed_problem(T=200, transition=transition)
+    rec = _agree_with_dense(problem, smoother=smoother, exponent=0.5)
+    assert 0 < rec.lazy_outputs.steady < 120
+
+
+def _dense_gains(problem):
+    """G_t = P_{t|t} A^T P_{t+1|t}^{-1} of the dense path, t = 0 .. T-2."""
+    n = problem["L"].shape[1]
+    a, eye = problem["transition"], np.eye(n)
+    f = dense.kalman_filter(
+        problem["L"], problem["Y"], eye[:5, :5], a * eye, problem["q"] * eye,
+        problem["theta0"] * eye, 0.5,
+    )  # fmt: skip
+    return [
+        np.linalg.solve(f["P_pred"][t + 1], a * f["P_filt"][t]).T
+        for t in range(len(f["P_pred"]) - 1)
+    ]
+
+
+@pytest.mark.parametrize("transition", [1.0, 0.8, -0.5, 1.1])
+def test_the_smoother_gains_are_the_dense_gains(transition):
+    # in the singular basis G_t = V diag(gamma_t) V^T + beta_t (I - V V^T): read both off the
+    # dense path's gain, on span V and on a vector orthogonal to it
+    from skf_ref.method import SpectralBasis
+    from skf_ref.method._paths.recursions import Recursions
+
+    problem = fixed_problem(T=12, transition=transition)
+    basis = SpectralBasis(problem["L"], np.eye(5))
+    recursions = Recursions(basis.s, transition, problem["q"], problem["theta0"], 12)
+    gamma, beta = recursions.gains
+    V = basis.V
+    perp = np.linalg.svd(V.T)[2][-1]  # orthogonal to span V (n = 9 > rank 5)
+    for t, G in enumerate(_dense_gains(problem)):
+        np.testing.assert_allclose(V.T @ G @ V, np.diag(gamma[t]), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(G @ perp, beta[t] * perp, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("transition", [1.0, 0.8, -0.5, 1.1])
+def test_the_complement_gain_follows_its_covariance(transition):
+    # off span V nothing is observed: c_{t+1|t} = a^2 c_{t|t-1} + q and c_{t|t} = c_{t|t-1},
+    # so beta_t = a c_{t|t-1} / c_{t+1|t}
+    from skf_ref.method._paths.recursions import Recursions
+
+    theta0, q, T = 2.0, 0.3, 40
+    c = [transition**2 * theta0 + q]
+    for _ in range(T - 1):
+        c.append(transition**2 * c[-1] + q)
+    expected = transition * np.array(c[:-1]) / np.array(c[1:])
+    recursions = Recursions(np.array([3.0, 1.0]), transition, q, theta0, T)
+    np.testing.assert_allclose(recursions.gains[1], expected, rtol=1e-14)
+    np.testing.assert_allclose(recursions.u, q / np.array(c), rtol=1e-14)
+
+
+@pytest.mark.parametrize("transition", [1.0, 0.8, -0.5])
+def test_the_held_recursion_is_the_full_one_from_the_steady_step_on(transition):
+    from skf_ref.method._paths.recursions import STEADY_RTOL, Recursions, fixed_point
+
+    s, q, theta0, T = np.array([4.0, 1.5, 0.2]), 0.05, 1.0, 600
+    held = Recursions(s, transition, q, theta0, T)
+    full = Recursions(s, transition, q, theta0, T, rtol=-1.0)
+    assert held.held and held.steady < 500 and not full.held
+    every = held.expand(held.p_pred, slice(0, T))
+    np.testing.assert_allclose(every, full.p_pred, rtol=STEADY_RTOL, atol=0)
+    np.testing.assert_array_equal(every[: held.steady + 1], full.p_pred[: held.steady + 1])
+    target = fixed_point(s, transition, q)
+    np.testing.assert_allclose(held.p_pred[-1], target, rtol=STEADY_RTOL)
+    gamma_held = held._gamma(slice(0, T - 1))
+    np.testing.assert_allclose(gamma_held, full.gains[0], rtol=1e-13, atol=0)
+    np.testing.assert_array_equal(held.gains[1], full.gains[1])  # beta is never held
+    assert held.log_det_innovations() == pytest.approx(full.log_det_innovations(), rel=1e-14)
+    eta = np.random.default_rng(0).standard_normal((T, 3))
+    xi_held, quadratic_held, _ = held.filter_means(eta)
+    xi_full, quadratic_full, _ = full.filter_means(eta)
+    np.testing.assert_allclose(xi_held, xi_full, rtol=1e-12, atol=1e-14)
+    assert quadratic_held == pytest.approx(quadratic_full, rel=1e-13)
+
+
+@pytest.mark.parametrize("transition", [1.0, 0.8, -0.5])
+def test_the_steady_state_starts_at_the_first_settled_step(transition):
+    # held from the first step whose p_{t|t-1} is within STEADY_RTOL / 2 of the fixed point
+    from skf_ref.method._paths.recursions import STEADY_RTOL, Recursions, fixed_point
+
+    s, q, theta0, T = np.array([4.0, 1.5, 0.2]), 0.05, 1.0, 600
+    full = Recursions(s, transition, q, theta0, T, rtol=-1.0).p_pred
+    close = np.abs(full - fixed_point(s, transition, q)) <= STEADY_RTOL / 2 * full
+    first = int(np.flatnonzero(close.all(axis=1))[0])
+    assert Recursions(s, transition, q, theta0, T).steady == first
+
+
+def _lead_field_of_singular_values(s, n=40, seed=0):
+    """An (len(s), n) lead field with singular values exactly ``s`` (to rounding), whose
+    column 0 lies along the fourth singular direction alone."""
+    rng = np.random.default_rng(seed)
+    m = len(s)
+    U = np.linalg.qr(rng.standard_normal((m, m)))[0]
+    rest = np.linalg.qr(rng.standard_normal((n - 1, m)))[0]  # orthonormal, zero in row 0
+    V = np.vstack([np.zeros(m), rest])
+    V[:, 3] = np.eye(n)[0]  # source 0: the weak direction only
+    V[1:, 3] = 0.0
+    return (U * s) @ V.T
+
+
+def test_the_numerical_rank_keeps_what_double_precision_resolves():
+    # the threshold is s_1 max(m, n) eps = 8.9e-15 s_1 here (m = 6, n = 40): 1e-9 is kept,
+    # 4e-15 (above m eps s_1, below n eps s_1) and 0 are not
+    from skf_ref.method import SpectralBasis
+
+    L = _lead_field_of_singular_values(np.array([1.0, 0.5, 0.1, 1e-9, 4e-15, 0.0]))
+    assert SpectralBasis(L, np.eye(6)).rank == 4
+    strong = _lead_field_of_singular_values(np.array([1.0, 0.5, 0.1, 1e-9, 1e-13, 0.0]))
+    assert SpectralBasis(strong, np.eye(6)).rank == 5
+
+
+def test_a_weak_direction_above_the_threshold_is_computed_as_the_dense_path_does():
+    # source 0 is seen only along the singular direction of 1e-9: dropping it from the
+    # basis (a threshold too high) would leave that source without weights
+    L = _lead_field_of_singular_values(np.array([1.0, 0.5, 0.1, 1e-9, 4e-15, 0.0]))
+    rng = np.random.default_rng(1)
+    Y = L @ rng.standard_normal((40, 8)) + 1e-3 * rng.standard_normal((6, 8))
+    problem = dict(L=L, Y=Y, noise_std=1e-3, theta0=1.0, q=0.1)
+    spectral = reconstruct(**problem, method="spectral")
+    reference = reconstruct(**problem, method="dense")
+    assert spectral.lazy_outputs.V.shape == (40, 4)  # the basis of rank 4
+    for name in ("z", "weights"):
+        np.testing.assert_allclose(getattr(spectral, name)[0], getattr(reference, name)[0],
+                                   rtol=1e-6)  # fmt: skip
+        assert relative(getattr(spectral, name), getattr(reference, name)) <= 1e-6

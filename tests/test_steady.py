@@ -1,6 +1,6 @@
 """The steady state of the spectral path: held recursions equal the full ones to 1e-12.
 
-From the step where the covariance recursion has settled (skf_ref/method/paths/recursions.py)
+From the step where the covariance recursion has settled (skf_ref/method/_paths/recursions.py)
 the spectral path holds it, and computes every output with constant weights: one product a
 step, the paper's smoother in the rank-r space. These tests run problems long enough to
 settle and compare with the full recursion (``STEADY_RTOL < 0`` never holds) and with the
@@ -13,11 +13,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from skf_ref import priors_from_snr, reconstruct
-from skf_ref.method.model import StateSpaceModel
-from skf_ref.method.paths import recursions, spectral_rows
-from skf_ref.method.paths.recursions import Recursions, fixed_point, recurrence
-from skf_ref.method.paths.singular_basis import map_threads
-from skf_ref.method.paths.spectral import SpectralModel
+from skf_ref._utils.threads import map_threads
+from skf_ref.method import SpectralModel, StateSpaceModel
+from skf_ref.method._paths import recursions, tiles, weights
+from skf_ref.method._paths.recursions import Recursions, fixed_point, recurrence
 
 QUANTITIES = ("z", "x", "z_filtered", "x_filtered", "weights")
 SMOOTHERS = (None, "rts-standardized", "rts-state")
@@ -67,7 +66,7 @@ def test_held_recursions_equal_the_full_ones(full_recursion, transition, exponen
         kwargs = dict(problem, transition=transition, exponent=exponent, smoother=smoother)
         held = reconstruct(**kwargs, method="spectral")
         full = full_recursion(**kwargs)
-        assert 0 < held.spectral_rows.steady < 60 and full.spectral_rows.steady == 150
+        assert 0 < held.lazy_outputs.steady < 60 and full.lazy_outputs.steady == 150
         for name in QUANTITIES:
             assert relative(getattr(held, name), getattr(full, name)) <= HELD_RTOL, name
         assert held.log_likelihood == pytest.approx(full.log_likelihood, rel=HELD_RTOL)
@@ -80,7 +79,7 @@ def test_a_settled_problem_equals_the_dense_path(smoother, exponent):
     kwargs = dict(problem, exponent=exponent, smoother=smoother)
     spectral = reconstruct(**kwargs, method="spectral")
     dense = reconstruct(**kwargs, method="dense")
-    assert spectral.spectral_rows.steady < 60  # most of the recording is held
+    assert spectral.lazy_outputs.steady < 60  # most of the recording is held
     for name in QUANTITIES:
         assert relative(getattr(spectral, name), getattr(dense, name)) <= DENSE_RTOL, name
     assert spectral.log_likelihood == pytest.approx(dense.log_likelihood, rel=DENSE_RTOL)
@@ -128,19 +127,20 @@ def test_streamed_tiles_equal_the_whole_arrays(monkeypatch, smoother):
     # projections a cluster would sum (to_dask): the same numbers as the whole arrays
     problem = settling_problem(seed=2, n=40, T=200)
     whole = reconstruct(**problem, exponent=1.25, smoother=smoother)
-    monkeypatch.setattr(spectral_rows, "BLOCK_BYTES", 8 * 7 * 13)
-    monkeypatch.setattr(spectral_rows, "MIN_BLOCK_COLUMNS", 7)
+    monkeypatch.setattr(tiles, "BLOCK_BYTES", 8 * 7 * 13)
+    monkeypatch.setattr(tiles, "MIN_BLOCK_COLUMNS", 7)
     streamed = reconstruct(**problem, exponent=1.25, smoother=smoother)
-    rows = streamed.spectral_rows
+    rows = streamed.lazy_outputs
     assert 0 < rows.steady < 100
     for name in QUANTITIES:
         blocks = np.vstack([block for _, block in streamed.blocks(name, rows=9)])
         assert relative(blocks, getattr(whole, name)) <= 1e-13, name
-    if smoother == "rts-standardized":
-        shares = [rows.projection(slice(i, i + 9)) for i in range(0, 40, 9)]
-        correction = rows.correction_from(np.sum(shares, axis=0))
-        block = rows.block("z", slice(5, 23), delta=correction).T
-        assert relative(block, whole.z[5:23]) <= 1e-13
+    # the LazyOutputs protocol: blocks computed apart from their shares, as to_dask does
+    shares = [rows.share("z", slice(i, i + 9)) for i in range(0, 40, 9)]
+    shared = rows.combine("z", shares)
+    assert (shared is None) == (smoother != "rts-standardized")
+    assert relative(rows.block("z", slice(5, 23), shared), whole.z[5:23]) <= 1e-13
+    assert relative(rows.block("z", slice(5, 23)), whole.z[5:23]) <= 1e-13
 
 
 def test_a_model_applied_again_reuses_its_weights(monkeypatch):
@@ -154,7 +154,7 @@ def test_a_model_applied_again_reuses_its_weights(monkeypatch):
     np.testing.assert_array_equal(prepared.apply(Y, 1.25, "rts-state").z, first)
     assert standardization.kept  # the steps before the steady state, from the second on
     np.testing.assert_array_equal(prepared.apply(Y, 1.25, "rts-state").z, first)
-    monkeypatch.setattr(spectral_rows, "CACHE_BYTES", 0)
+    monkeypatch.setattr(weights, "CACHE_BYTES", 0)
     uncached = SpectralModel(model, n_times=100)
     for _ in range(2):
         np.testing.assert_allclose(uncached.apply(Y, 1.25, "rts-state").z, first, rtol=1e-14)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from skf_ref import InputError, reconstruct
+from skf_ref.io import to_dask, to_zarr
 
 NAMES = ("z", "x", "z_filtered", "x_filtered", "weights")
 SMOOTHERS = (None, "rts-standardized", "rts-state")
@@ -44,7 +45,7 @@ def test_blocks_equal_the_arrays(method, smoother):
 
 @pytest.mark.parametrize("smoother", SMOOTHERS)
 def test_zarr_store_equals_the_arrays(tmp_path, smoother):
-    store = run(smoother).to_zarr(tmp_path / "r.zarr", arrays=NAMES, chunks=37)
+    store = to_zarr(run(smoother), tmp_path / "r.zarr", arrays=NAMES, chunks=37)
     whole = run(smoother)
     for name in NAMES:
         assert store[name].shape == (300, 50) and store[name].chunks == (37, 50)
@@ -53,7 +54,7 @@ def test_zarr_store_equals_the_arrays(tmp_path, smoother):
 
 
 def test_zarr_store_is_whole_or_absent(tmp_path, monkeypatch):
-    from skf_ref.method.result import Reconstruction
+    from skf_ref import Reconstruction
 
     path = tmp_path / "r.zarr"
     rec = run("rts-state")
@@ -68,15 +69,15 @@ def test_zarr_store_is_whole_or_absent(tmp_path, monkeypatch):
     original = Reconstruction.blocks
     monkeypatch.setattr(Reconstruction, "blocks", failing)
     with pytest.raises(KeyboardInterrupt):
-        rec.to_zarr(path, chunks=10)
+        to_zarr(rec, path, chunks=10)
     assert calls and not path.exists() and not list(tmp_path.iterdir())
     monkeypatch.undo()
-    rec.to_zarr(path)
+    to_zarr(rec, path)
     with pytest.raises(InputError, match="exists: give overwrite=True"):
-        rec.to_zarr(path)
-    rec.to_zarr(path, arrays=("weights",), overwrite=True)
+        to_zarr(rec, path)
+    to_zarr(rec, path, arrays=("weights",), overwrite=True)
     with pytest.raises(InputError, match="arrays must be one of"):
-        rec.to_zarr(tmp_path / "s.zarr", arrays=("zz",))
+        to_zarr(rec, tmp_path / "s.zarr", arrays=("zz",))
 
 
 def test_a_failed_write_leaves_no_store_and_says_why(tmp_path, monkeypatch):
@@ -98,7 +99,7 @@ def test_a_failed_write_leaves_no_store_and_says_why(tmp_path, monkeypatch):
         stream, "_write_behind", lambda blocks, write: original(blocks, full_disk, limit=0)
     )
     with pytest.raises(OSError, match="No space left"):
-        run("rts-standardized").to_zarr(tmp_path / "r.zarr", chunks=10)
+        to_zarr(run("rts-standardized"), tmp_path / "r.zarr", chunks=10)
     assert written and not list(tmp_path.iterdir())
 
 
@@ -142,7 +143,7 @@ def cluster():
 
 @pytest.mark.parametrize("smoother", SMOOTHERS)
 def test_dask_array_on_a_local_cluster_equals_the_arrays(cluster, smoother):
-    array = run(smoother).to_dask("z", chunks=40)
+    array = to_dask(run(smoother), "z", chunks=40)
     whole = run(smoother).z
     assert array.chunks[0] == (40,) * 7 + (20,)
     # the r x T state is one task: it travels to each worker once, not once per block
@@ -218,12 +219,12 @@ def test_overwrite_replaces_only_a_store_to_zarr_wrote(tmp_path):
     a_file.write_text("not a store")
     for path in (folder, a_file):
         with pytest.raises(InputError, match=f"{path} exists and is not a store written by"):
-            rec.to_zarr(path, overwrite=True)
+            to_zarr(rec, path, overwrite=True)
     assert (folder / "notes.txt").read_text() == "a user's file"
     assert a_file.read_text() == "not a store"
     store = tmp_path / "r.zarr"
-    rec.to_zarr(store)
-    again = rec.to_zarr(store, arrays=("weights",), overwrite=True)
+    to_zarr(rec, store)
+    again = to_zarr(rec, store, arrays=("weights",), overwrite=True)
     assert list(again.array_keys()) == ["weights"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["data.zarr", "mine.zarr", "r.zarr"]
 
@@ -242,7 +243,7 @@ def test_a_killed_writer_s_temporaries_go_on_the_next_run(tmp_path):
 
     def left_by_the_dead(tag, mark):
         path = tmp_path / f".r.zarr.skf-{tag}-{dead.pid}-{mark}"
-        rec.to_zarr(tmp_path / "scratch.zarr").store.close()
+        to_zarr(rec, tmp_path / "scratch.zarr").store.close()
         (tmp_path / "scratch.zarr").rename(path)
         zarr.open_group(path, mode="r+").attrs[STORE_MARK] = mark
         return path
@@ -254,11 +255,11 @@ def test_a_killed_writer_s_temporaries_go_on_the_next_run(tmp_path):
     users.mkdir()
     (users / "notes.txt").write_text("kept")
     with pytest.raises(InputError, match="r.zarr exists: give overwrite=True"):
-        rec.to_zarr(tmp_path / "r.zarr")  # the complete store is back in place
+        to_zarr(rec, tmp_path / "r.zarr")  # the complete store is back in place
     assert not complete.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == [users.name, "r.zarr"]
     old = left_by_the_dead("old", "complete")  # set aside, the new one in place: deleted
-    rec.to_zarr(tmp_path / "r.zarr", overwrite=True)
+    to_zarr(rec, tmp_path / "r.zarr", overwrite=True)
     assert not old.exists() and (users / "notes.txt").exists()
 
 
@@ -266,16 +267,16 @@ def test_errors_name_the_user_s_path_and_arrays_are_checked(tmp_path):
     rec = run(None, n=60, T=5)
     missing = tmp_path / "nodir" / "r.zarr"
     with pytest.raises(InputError, match=f"{missing}: the folder {missing.parent} does not"):
-        rec.to_zarr(missing)
+        to_zarr(rec, missing)
     with pytest.raises(InputError, match=r"arrays must name each output once, got \['z'\]"):
-        rec.to_zarr(tmp_path / "r.zarr", arrays=("z", "z"))
+        to_zarr(rec, tmp_path / "r.zarr", arrays=("z", "z"))
     with pytest.raises(TypeError, match="arrays must be a sequence of output names"):
-        rec.to_zarr(tmp_path / "r.zarr", arrays="weights")
+        to_zarr(rec, tmp_path / "r.zarr", arrays="weights")
     assert not list(tmp_path.iterdir())
 
 
 def test_a_small_output_takes_a_small_chunk(tmp_path):
-    store = run(None, n=10, T=5).to_zarr(tmp_path / "r.zarr", arrays=NAMES)
+    store = to_zarr(run(None, n=10, T=5), tmp_path / "r.zarr", arrays=NAMES)
     assert store["z"].chunks == (10, 5)
     size = sum(p.stat().st_size for p in (tmp_path / "r.zarr").rglob("*") if p.is_file())
     assert size < 64 * 2**10  # five 10 x 5 arrays and their metadata, not 64 MiB a chunk

@@ -7,9 +7,8 @@ import pytest
 from scipy import linalg
 
 import skf_ref
-from skf_ref import InputError, reconstruct
-from skf_ref.method.paths.singular_basis import SpectralBasis
-from skf_ref.method.tuning import tune
+from skf_ref import InputError, reconstruct, tune
+from skf_ref.method import SpectralBasis
 
 # The likelihood-only recursion and the full paths compute the same sum of the same terms
 # in other orders (the dense path through Cholesky factors of S): rounding, ~1e-15 relative.
@@ -180,13 +179,13 @@ def test_a_fixed_snr_never_warns():
 
 def test_choose_priors_passes_the_criterion_and_warns_at_its_caller():
     L, Y = state_space_data(2, T=60)
-    theta0, q, result = skf_ref.method.tuning.choose_priors(
+    theta0, q, result = skf_ref.method._tuning.choose_priors(
         L, Y, noise_std=0.5, pm_snr_db=10.0, ep_snr_db="auto", criterion="discrepancy"
     )
     assert result.criterion == "discrepancy" and (theta0, q) == (result.theta0, result.q)
     assert result.residual_energy == pytest.approx(Y.size, rel=DISCREPANCY_RTOL)
     with pytest.warns(UserWarning, match="pm_snr_db = -20.00 dB lies on the lower") as record:
-        skf_ref.method.tuning.choose_priors(
+        skf_ref.method._tuning.choose_priors(
             L, 0.5 * np.ones_like(Y), noise_std=0.5, pm_snr_db="auto", ep_snr_db=40.0
         )
     assert {w.filename for w in record} == {__file__}
@@ -210,7 +209,7 @@ def test_a_fixed_snr_and_auto_everywhere(mne_setup):
     L, Y = state_space_data(3, T=60)
     fixed = tune(L, Y, noise_std=0.5, pm_snr_db=0.0, grid=9)
     assert fixed.pm_snr_db == 0.0 and fixed.landscape.shape == (9, 5)
-    theta0, q, _ = skf_ref.method.tuning.choose_priors(
+    theta0, q, _ = skf_ref.method._tuning.choose_priors(
         L, Y, noise_std=0.5, pm_snr_db=0.0, ep_snr_db="auto"
     )
     assert (theta0, q) == pytest.approx((fixed.theta0, fixed.q), rel=1e-6)
@@ -254,7 +253,7 @@ def test_bad_ranges_are_refused(change, match):
     with pytest.raises(InputError, match="priors chosen by the data .'auto'. are skf_ref.tune's"):
         skf_ref.priors_from_snr(L, 0.5, "auto", 20.0, 10)
     with pytest.raises(InputError, match="criterion must be one of"):
-        skf_ref.method.tuning.choose_priors(
+        skf_ref.method._tuning.choose_priors(
             L, Y, noise_std=0.5, pm_snr_db=0.0, ep_snr_db=0.0, criterion="morozov"
         )
 

@@ -8,7 +8,7 @@ Each row runs one path on one size: the SKF with ``"rts-standardized"`` smoothin
 its time includes every preparation, the SVD among them), ``apply_skf`` (the MNE route at
 its defaults, exponent 0.5 without smoothing: channel picking, MNE's whitener, the spectral
 path and the source estimate, from an evoked, a forward and a covariance), ``tune``
-(PM-SNR and EP-SNR chosen by marginal likelihood, :func:`skf_ref.method.tuning`: a 13 x 13 grid
+(PM-SNR and EP-SNR chosen by marginal likelihood, :func:`skf_ref.tune`: a 13 x 13 grid
 over -20..40 dB and a bounded refinement, SVD included), or MNE-Python's sLORETA:
 ``mne-sloreta`` is ``mne.minimum_norm.apply_inverse`` on an inverse operator made
 beforehand, ``mne-sloreta+make`` also times ``make_inverse_operator`` (MNE's SVD),
@@ -134,7 +134,7 @@ def _mne_inputs(problem):
 
 
 def _tune_runner(problem):
-    from skf_ref.method.tuning import tune
+    from skf_ref import tune
 
     return lambda: tune(problem["head"].leadfield, problem["Y"], noise_std=problem["noise_std"])
 

@@ -6,7 +6,7 @@ Run from the repository root::
     python -m validation.crosscheck --paths filterpy
 
 Each path in :data:`PATHS` reconstructs a grid of seeded random problems, and its result is
-compared with that of the reference path :data:`REFERENCE` (``skf_ref/method/paths/dense.py``, the
+compared with that of the reference path :data:`REFERENCE` (``skf_ref/method/_paths/dense.py``, the
 readable statement of the algorithm). The grid crosses
 
 - orientation: fixed (one column per position) and free (three, MNE's order);
@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from skf_ref import priors_from_snr, reconstruct
-from skf_ref.method.reconstruct import METHODS
+from skf_ref.method._settings import METHODS
 
 __all__ = [
     "TOLERANCE",

@@ -5,12 +5,12 @@ writes the section below to ``validation/bench/results.md`` (and ``floor.csv``).
 
 The floor of one smoothed ``z`` (``"rts-standardized"``, exponent 1.25) is the work no way
 of computing it can skip: the thin SVD of the whitened lead field (the package's own,
-:func:`skf_ref.method.paths.singular_basis.thin_svd`), four (n, r) x (r, T) products (the
+``skf_ref.method._paths.singular_basis.thin_svd``), four (n, r) x (r, T) products (the
 raw weights ``(V o V) omega``, the whitened means ``V u``, the projection ``V^T z`` and the
 correction ``V delta``), each one BLAS call on every BLAS thread into one new (T, n)
 array, as any way of computing ``z`` returns a new array, and one elementwise pass over it
 (``w ** -alpha`` in its fastest form,
-:func:`skf_ref.method.standardization.standardization_weights`, on one core). The path is
+``skf_ref.method._standardization.standardization_weights``, on one core). The path is
 timed from the lead field and the data: ``reconstruct(...).z``, everything included.
 
 A new array costs more than its arithmetic on this machine's virtual machine: memory freed
@@ -56,8 +56,8 @@ def floor_runner(problem, exponent=EXPONENT):
     callable
         Returns ``{"svd": s, "products": s, "elementwise": s}``.
     """
-    from skf_ref.method.paths.singular_basis import thin_svd
-    from skf_ref.method.standardization import standardization_weights
+    from skf_ref.method._paths.singular_basis import thin_svd
+    from skf_ref.method._standardization import standardization_weights
 
     Lw = problem["head"].leadfield / problem["noise_std"]
     _, _, V = thin_svd(Lw)

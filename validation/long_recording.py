@@ -5,7 +5,7 @@
 hour-like recording), ``"rts-standardized"`` smoothing, exponent 1.25, its smoothed ``z``
 (16 GB) written by ``Reconstruction.to_zarr``, block of rows by block, in a fresh process,
 which reports its wall time, its CPU time (every thread), the step from which the
-recursions are held (the steady state, skf_ref/method/paths/recursions.py) and its peak
+recursions are held (the steady state, skf_ref/method/_paths/recursions.py) and its peak
 resident memory (``VmHWM`` of ``/proc/self/status``: on Linux ``ru_maxrss`` of a child
 counts its parent's resident memory at the fork, 4.9 GiB once after the bench's largest
 sizes). The machine's load is recorded before it starts. ``python -m
@@ -67,6 +67,7 @@ def stream(n_sources, n_channels, n_times, folder, seed=0):
     """
     from skf_ref import priors_from_snr, reconstruct
     from skf_ref._utils.provenance import blas_threads
+    from skf_ref.io import to_zarr
 
     rng = np.random.default_rng(seed)
     L = rng.standard_normal((n_channels, n_sources))
@@ -78,7 +79,7 @@ def stream(n_sources, n_channels, n_times, folder, seed=0):
     rec = reconstruct(
         L, Y, noise_std=1.0, theta0=theta0, q=q, exponent=1.25, smoother="rts-standardized"
     )
-    rec.to_zarr(Path(folder) / "z.zarr", arrays=("z",))
+    to_zarr(rec, Path(folder) / "z.zarr", arrays=("z",))
     os.sync()
     seconds, cpu = time.perf_counter() - start, _cpu_seconds() - cpu
     peak = _peak_resident_bytes()
@@ -89,7 +90,7 @@ def stream(n_sources, n_channels, n_times, folder, seed=0):
         peak_rss_gib=peak / 2**30,
         bytes=8 * n_sources * n_times,
         blas=blas,
-        steady=rec.spectral_rows.steady,
+        steady=rec.lazy_outputs.steady,
     )
 
 

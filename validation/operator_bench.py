@@ -157,15 +157,35 @@ def measure(runners, repeats):
     return pd.DataFrame(rows)
 
 
-def summarize(rounds, size, made, load_before, load_after, blas_limit=None):
+def summarize(
+    rounds, size, made, load_before, load_after, blas_limit=None, targets=None, reference=None
+):
     """Medians and IQRs per path, and of each round's ratio to MNE's time.
+
+    Parameters
+    ----------
+    rounds : pandas.DataFrame
+        :func:`measure`'s.
+    size : dict
+        What was measured (``n_columns``, ``n_channels``, ``n_times``, ...): a column each.
+    made : dict
+        Seconds each operator took to make; the SKF paths share ``made["skf"]``.
+    load_before, load_after : tuple of float
+        ``os.getloadavg()``.
+    blas_limit : int, optional
+    targets : dict, optional
+        Each path's target ratio (default :data:`TARGETS`).
+    reference : str, optional
+        The path the ratios divide by (default ``"mne-sloreta"``).
 
     Returns
     -------
     pandas.DataFrame
         One row per path.
     """
-    mne_time = rounds[rounds.path == "mne-sloreta"].set_index("round")["seconds"]
+    targets = TARGETS if targets is None else targets
+    reference = "mne-sloreta" if reference is None else reference
+    mne_time = rounds[rounds.path == reference].set_index("round")["seconds"]
     blas = blas_threads()
     described = "; ".join(f"{b['library']} {b['version']} ({b['threads']})" for b in blas)
     rows = []
@@ -181,14 +201,12 @@ def summarize(rounds, size, made, load_before, load_after, blas_limit=None):
         }
         rows.append(
             dict(
-                n_columns=size[0],
-                n_channels=size[1],
-                n_times=size[2],
+                **size,
                 path=path,
                 rounds=len(group),
                 **{f"{k}_median": q[1] for k, q in quartiles.items()},
                 **{f"{k}_iqr": q[2] - q[0] for k, q in quartiles.items()},
-                target=TARGETS.get(path, np.nan),
+                target=targets.get(path, np.nan),
                 made_seconds=made.get(path, made["skf"] if path.startswith("skf") else np.nan),
                 blas=described or "none",
                 blas_threads=max((b["threads"] for b in blas), default=1),
@@ -244,8 +262,8 @@ def stages(evoked, operator, smoother, repeats):
     return {name: float(np.median(values)) for name, values in times.items()}
 
 
-def report(table, profiles=None, stage_times=None):
-    """The markdown file: machine, BLAS, load, the table, the targets and any profile."""
+def report_table(table, what, digits=4):
+    """The markdown's first lines: machine, BLAS and load, ``what`` was measured, the table."""
     info = machine()
     versions = ", ".join(f"{name} {version}" for name, version in info["versions"].items())
     first = table.iloc[0]
@@ -253,9 +271,8 @@ def report(table, profiles=None, stage_times=None):
         f"Machine: {info['platform']}, {info['cpus']} CPUs, Python {info['python']}; {versions}.",
         f"BLAS (threadpoolctl): {first.blas}; limit {first.blas_limit}. Load average (1, 5, "
         f"15 min) before: {first.load_before}; after: {first.load_after}.",
-        f"Size: {first.n_columns} columns, {first.n_channels} channels, {first.n_times} "
-        f"samples; {first.rounds} interleaved rounds. Medians (IQR) over the rounds; the "
-        "ratio is each round's time over MNE's in the same round.",
+        f"{what}; {first.rounds} interleaved rounds. Medians (IQR) over the rounds; the ratio "
+        "is each round's time over MNE's in the same round.",
         "",
         "| path | wall (s) | CPU (s) | ratio to MNE | target | operator made (s) |",
         "|---|---:|---:|---:|---:|---:|",
@@ -263,11 +280,19 @@ def report(table, profiles=None, stage_times=None):
     for row in table.itertuples():
         target = "" if np.isnan(row.target) else f"<= {row.target:g}"
         lines.append(
-            f"| {row.path} | {row.seconds_median:.4f} ({row.seconds_iqr:.4f}) "
-            f"| {row.cpu_seconds_median:.4f} ({row.cpu_seconds_iqr:.4f}) "
+            f"| {row.path} | {row.seconds_median:.{digits}f} ({row.seconds_iqr:.{digits}f}) "
+            f"| {row.cpu_seconds_median:.{digits}f} ({row.cpu_seconds_iqr:.{digits}f}) "
             f"| {row.ratio_median:.2f} ({row.ratio_iqr:.2f}) | {target} "
             f"| {row.made_seconds:.3f} |"
         )
+    return lines
+
+
+def report(table, profiles=None, stage_times=None):
+    """The markdown file: machine, BLAS, load, the table, the targets and any profile."""
+    first = table.iloc[0]
+    what = f"Size: {first.n_columns} columns, {first.n_channels} channels, {first.n_times} samples"
+    lines = report_table(table, what)
     if stage_times:
         names = list(next(iter(stage_times.values())))
         lines += [
@@ -286,6 +311,42 @@ def report(table, profiles=None, stage_times=None):
     return "\n".join(lines) + "\n"
 
 
+def blas_limited(blas_limit=None):
+    """A context limiting the BLAS threads to ``blas_limit`` (threadpoolctl), or not at all."""
+    if blas_limit is None:
+        return nullcontext()
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=blas_limit, user_api="blas")
+
+
+def timed_rounds(runners, repeats):
+    """Every path run once (first-call imports and allocations), then :func:`measure`.
+
+    Returns
+    -------
+    rounds : pandas.DataFrame
+    load_before, load_after : tuple of float
+        ``os.getloadavg()`` around the rounds.
+    """
+    for call in runners.values():
+        call()
+    load_before = os.getloadavg()
+    rounds = measure(runners, repeats)
+    return rounds, load_before, os.getloadavg()
+
+
+def write_results(folder, stem, table, text):
+    """``FOLDER/STEM.csv`` and ``FOLDER/STEM.md``, each whole or not at all; print the text."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    with atomic_path(folder / f"{stem}.csv") as tmp:
+        table.to_csv(tmp, index=False)
+    with atomic_path(folder / f"{stem}.md") as tmp:
+        tmp.write_text(text)
+    print(text)
+
+
 def run(size=SIZE, repeats=15, blas_limit=None, with_profile=False):
     """The whole benchmark at one size.
 
@@ -299,19 +360,11 @@ def run(size=SIZE, repeats=15, blas_limit=None, with_profile=False):
         ``{path: {stage: seconds}}`` (:func:`stages`) with ``with_profile``.
     """
     evoked, forward, noise_cov = make_inputs(*size)
-    limit = nullcontext()
-    if blas_limit is not None:
-        from threadpoolctl import threadpool_limits
-
-        limit = threadpool_limits(limits=blas_limit, user_api="blas")
-    with limit:
+    with blas_limited(blas_limit):
         runners, made = make_runners(evoked, forward, noise_cov)
-        for call in runners.values():  # warm: first-call imports and allocations
-            call()
-        load_before = os.getloadavg()
-        rounds = measure(runners, repeats)
-        load_after = os.getloadavg()
-        table = summarize(rounds, size, made, load_before, load_after, blas_limit)
+        rounds, load_before, load_after = timed_rounds(runners, repeats)
+        fields = dict(n_columns=size[0], n_channels=size[1], n_times=size[2])
+        table = summarize(rounds, fields, made, load_before, load_after, blas_limit)
         profiles, stage_times = {}, {}
         if with_profile:
             profiles = {path: profile(runners[path]) for path in ("mne-sloreta", "skf")}
@@ -338,14 +391,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
     size = tuple(int(v) for v in args.size.split(","))
     table, profiles, stage_times = run(size, args.repeats, args.blas_threads, args.profile)
-    args.out.mkdir(parents=True, exist_ok=True)
     stem = "operator" if args.blas_threads is None else f"operator-blas{args.blas_threads}"
-    with atomic_path(args.out / f"{stem}.csv") as tmp:
-        table.to_csv(tmp, index=False)
-    text = report(table, profiles, stage_times)
-    with atomic_path(args.out / f"{stem}.md") as tmp:
-        tmp.write_text(text)
-    print(text)
+    write_results(args.out, stem, table, report(table, profiles, stage_times))
     return 0
 
 

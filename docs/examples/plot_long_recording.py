@@ -4,7 +4,7 @@ A long recording, streamed to disk
 
 A spectral reconstruction holds only r x T numbers (r = channels, T = steps) until an
 output is asked for, and every row of an output depends on one row of the lead field's
-singular vectors only. So :meth:`Reconstruction.to_zarr <skf_ref.Reconstruction.to_zarr>`
+singular vectors only. So :func:`skf_ref.io.to_zarr`
 writes an output to a zarr store block of rows by block, never holding it whole
 (:doc:`/scale`). Here a train of twenty P20/N20 responses, 4000 steps where the demo has
 41, is reconstructed, streamed to disk, read back with zarr, and compared with the same
@@ -20,6 +20,7 @@ import numpy as np
 import zarr
 
 import skf_ref
+from skf_ref.io import to_zarr
 from skf_ref.study.head import make_head_model
 from skf_ref.study.regions import region_mask
 from skf_ref.study.scenario import p20n20_scenario, simulate
@@ -61,7 +62,7 @@ print(f"z would take {size_mb:.0f} MB in memory")
 
 folder = Path(tempfile.mkdtemp())
 start = time.perf_counter()
-store = rec.to_zarr(folder / "skf.zarr", arrays=("z",), chunks=256)
+store = to_zarr(rec, folder / "skf.zarr", arrays=("z",), chunks=256)
 print(f"written in {time.perf_counter() - start:.1f} s:", store["z"].shape, store["z"].chunks)
 print("z computed in memory meanwhile:", rec.computed("z"))
 print("settings in the store:", {key: store.attrs[key] for key in ("method", "exponent")})

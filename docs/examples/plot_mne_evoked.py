@@ -11,8 +11,9 @@ dataset is at hand.
 
 :func:`~skf_ref.apply_skf` works like ``mne.minimum_norm.apply_inverse``: channels are matched
 by name, the average reference is applied to data and lead field alike, both are whitened
-with the noise covariance, and the priors are taken on the whitened lead field, so PM-SNR
-and EP-SNR do not depend on units (:doc:`/getting_started`).
+with the noise covariance (divided by the evoked's ``nave``), and the priors are taken on
+the whitened lead field, so PM-SNR and EP-SNR do not depend on units
+(:doc:`/getting_started`).
 """
 
 import os
@@ -76,7 +77,9 @@ fig_evoked = evoked.plot_joint(times=[0.015], show=False)
 # --------------------------
 # The SKF at the package's default setting (exponent 0.5, no smoother, PM-SNR 0 dB,
 # EP-SNR 20 dB); sLORETA with MNE's usual regularization for evoked data, free orientation
-# and no depth weighting, as the study runs it (:mod:`skf_ref.study.baselines`).
+# and no depth weighting, as the study runs it (:mod:`skf_ref.study.baselines`). Both
+# whiten the evoked, an average of 30 epochs, with the noise covariance of one trial
+# divided by its ``nave`` (30), as the log says.
 
 
 def peak_error_mm(stc, src, dipole):

@@ -4,7 +4,7 @@
   defines, or re-exports from a private module) and those it only re-exports (linked to
   where they are documented); ``conf.py`` hands it to the autosummary templates.
 - :func:`resolve_alias`: a cross-reference to a name by another of its import paths
-  (``skf_ref.method.reconstruct.reconstruct`` for ``skf_ref.reconstruct``) finds the page
+  (``skf_ref.method._reconstruct.reconstruct`` for ``skf_ref.reconstruct``) finds the page
   where that object is documented.
 - :func:`figure_scraper`: the gallery shows the figures the package returns. They are
   ``matplotlib.figure.Figure`` objects made without pyplot, which sphinx-gallery's own
@@ -22,14 +22,38 @@ from pathlib import Path
 PACKAGE = "skf_ref"
 
 
+#: The documented modules: the top level, the packages that declare the names of a layer,
+#: and the study's namespaces. Every other module is the implementation of one of them
+#: (private: a leading underscore, or listed as such by its package's docstring), and its
+#: names are documented where they are declared. tests/test_api.py holds the names of each.
+PUBLIC_MODULES = (
+    "skf_ref",
+    "skf_ref.method",
+    "skf_ref.io",
+    "skf_ref.conformance",
+    "skf_ref.study",
+    "skf_ref.study.baselines",
+    "skf_ref.study.demo",
+    "skf_ref.study.head",
+    "skf_ref.study.metrics",
+    "skf_ref.study.plots",
+    "skf_ref.study.regions",
+    "skf_ref.study.scenario",
+    "skf_ref.study.sweep",
+    "skf_ref.cli",
+)
+
+
 def public_modules(package=PACKAGE):
-    """Every module of the package without a leading underscore in its dotted name."""
+    """The documented modules (:data:`PUBLIC_MODULES`), sorted."""
+    return sorted(name for name in PUBLIC_MODULES if name.split(".")[0] == package)
+
+
+def all_modules(package=PACKAGE):
+    """Every module of the package, private ones included."""
     root = importlib.import_module(package)
-    names = [package]
-    for info in pkgutil.walk_packages(root.__path__, f"{package}."):
-        if not any(part.startswith("_") for part in info.name.split(".")):
-            names.append(info.name)
-    return sorted(names)
+    found = pkgutil.walk_packages(root.__path__, f"{package}.")
+    return [package, *(info.name for info in found if not info.name.endswith(".__main__"))]
 
 
 def _kind(obj):
@@ -63,8 +87,23 @@ def _imported_from(module):
     return found
 
 
+def _assigned(modname):
+    """The names a module assigns at its top level (``NAME = ...``), from its source."""
+    path = getattr(importlib.import_module(modname), "__file__", None)
+    if path is None:
+        return set()
+    names = set()
+    for node in ast.parse(Path(path).read_text(encoding="utf-8")).body:
+        targets = node.targets if isinstance(node, ast.Assign) else []
+        if isinstance(node, ast.AnnAssign):
+            targets = [node.target]
+        names |= {target.id for target in targets if isinstance(target, ast.Name)}
+    return names
+
+
 def _is_private(dotted):
-    return any(part.startswith("_") for part in dotted.split("."))
+    """Whether names defined in module ``dotted`` are documented where they are declared."""
+    return dotted not in PUBLIC_MODULES
 
 
 def api_pages(package=PACKAGE):
@@ -129,6 +168,12 @@ def api_pages(package=PACKAGE):
         defined = getattr(obj, "__module__", None), getattr(obj, "__qualname__", None)
         if None not in defined and _kind(obj) != "data":
             aliases.setdefault(".".join(defined), f"{package}.{name}")
+    for modname in all_modules(package):  # an implementation module: its package's page
+        if modname not in PUBLIC_MODULES:
+            home = modname
+            while home not in PUBLIC_MODULES:
+                home = home.rpartition(".")[0]
+            aliases.setdefault(modname, home)
     return pages, aliases
 
 
@@ -136,8 +181,8 @@ def top_level_data(package=PACKAGE):
     """The package's exported constants: dotted name -> (repr of the value, its doc lines).
 
     autodoc looks for a constant's ``#:`` comment in the module it is documented from,
-    ``skf_ref`` itself, which only loads it from its home (``skf_ref.method.settings``);
-    the comment is read from the home here.
+    ``skf_ref`` itself, which only loads it from its home (``skf_ref.method._settings``);
+    the comment is read from the home here (the first module that assigns it).
     """
     from sphinx.pycode import ModuleAnalyzer
 
@@ -148,11 +193,7 @@ def top_level_data(package=PACKAGE):
         if _kind(value) != "data":
             continue
         home = next(  # the module that assigns it, not one that imports it
-            module
-            for module in public_modules(package)
-            if module != package
-            and getattr(importlib.import_module(module), name, None) is value
-            and name not in _imported_from(importlib.import_module(module))
+            module for module in all_modules(package) if name in _assigned(module)
         )
         docs = ModuleAnalyzer.for_module(home).find_attr_docs().get(("", name), [])
         found[f"{package}.{name}"] = (repr(value), [line for line in docs if line])
@@ -190,7 +231,7 @@ def resolve_alias(app, env, node, contnode):
             head, _, last = head.rpartition(".")
             rest = f".{last}{rest}"
     # A short name in a docstring rendered away from its module (``skf_ref.tune``'s
-    # docstring names ``BOUND_TOL_DB`` of skf_ref.method.tuning): the one documented object
+    # docstring names ``BOUND_TOL_DB`` of skf_ref.method._tuning): the one documented object
     # of the package whose dotted name ends with it, if there is exactly one.
     if not target.startswith(f"{PACKAGE}."):
         types = domain.objtypes_for_role(node["reftype"]) or ()

@@ -10,10 +10,12 @@ reshaped or cast silently.
 
 import numbers
 import os
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy import linalg
 
 __all__ = [
@@ -46,7 +48,7 @@ class InputTypeError(InputError, TypeError):
     """A user input is the wrong kind of object; a ``TypeError`` (and an :class:`InputError`)."""
 
 
-def describe(value):
+def describe(value: object) -> str:
     """A short description of a received value for error messages.
 
     Examples
@@ -62,7 +64,7 @@ def describe(value):
     return f"{text} ({type(value).__name__})"
 
 
-def check_choice(name, value, allowed):
+def check_choice(name: str, value: Any, allowed: Collection[Any]) -> Any:
     """Return ``value`` if it is one of ``allowed``, else raise naming all of them.
 
     Examples
@@ -81,7 +83,15 @@ def check_choice(name, value, allowed):
     return value
 
 
-def check_real(name, value, *, positive=False, nonnegative=False, minimum=None, maximum=None):
+def check_real(
+    name: str,
+    value: Any,
+    *,
+    positive: bool = False,
+    nonnegative: bool = False,
+    minimum: float | None = None,
+    maximum: float | None = None,
+) -> float:
     """A finite real scalar (``bool`` excluded), optionally > 0, >= 0 and in [min, max].
 
     Examples
@@ -115,7 +125,7 @@ def check_real(name, value, *, positive=False, nonnegative=False, minimum=None, 
 MAX_DB = 300.0
 
 
-def check_db(name, value):
+def check_db(name: str, value: Any) -> float:
     """A level in dB (an SNR): finite and within +-:data:`MAX_DB`.
 
     Examples
@@ -132,7 +142,9 @@ def check_db(name, value):
     return value
 
 
-def check_int(name, value, *, minimum=1, maximum=None):
+def check_int(
+    name: str, value: Any, *, minimum: int | None = 1, maximum: int | None = None
+) -> int:
     """An integer (``bool`` excluded) in ``[minimum, maximum]``.
 
     Examples
@@ -146,14 +158,17 @@ def check_int(name, value, *, minimum=1, maximum=None):
         value = value.item()
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise InputTypeError(f"{name} must be an integer, got {describe(value)}")
+    value = int(value)
     if minimum is not None and value < minimum:
         raise InputError(f"{name} must be >= {minimum}, got {value!r}")
     if maximum is not None and value > maximum:
         raise InputError(f"{name} must be <= {maximum}, got {value!r}")
-    return int(value)
+    return value
 
 
-def check_instance(name, value, cls, what=None):
+def check_instance(
+    name: str, value: Any, cls: type | tuple[type, ...], what: str | None = None
+) -> Any:
     """``value`` if it is an instance of ``cls``, else an :class:`InputTypeError`."""
     if not isinstance(value, cls):
         what = what or getattr(cls, "__name__", str(cls))
@@ -161,7 +176,9 @@ def check_instance(name, value, cls, what=None):
     return value
 
 
-def check_array(name, value, shape, *, finite=True):
+def check_array(
+    name: str, value: ArrayLike, shape: Sequence[int | str | None], *, finite: bool = True
+) -> NDArray[np.float64]:
     """A float array of exactly ``shape``, finite unless ``finite=False``.
 
     Entries of ``shape`` that are ``None`` or a name (``"n_times"``) match any length; the
@@ -196,7 +213,7 @@ def check_array(name, value, shape, *, finite=True):
     return array
 
 
-def check_vector(name, value, length):
+def check_vector(name: str, value: ArrayLike, length: int) -> NDArray[np.float64]:
     """``length`` finite numbers as a float array of shape (length,).
 
     Examples
@@ -209,7 +226,7 @@ def check_vector(name, value, length):
     return check_array(name, value, (length,))
 
 
-def check_leadfield(L, name="L"):
+def check_leadfield(L: ArrayLike, name: str = "L") -> NDArray[np.float64]:
     """Lead field (n_channels, n_sources), finite, at least one column, no all-zero column."""
     L = check_array(name, L, ("n_channels", "n_sources"))
     if 0 in L.shape:
@@ -226,7 +243,7 @@ def check_leadfield(L, name="L"):
     return L
 
 
-def check_spd(name, value, n):
+def check_spd(name: str, value: ArrayLike, n: int) -> NDArray[np.float64]:
     """A symmetric positive definite (n, n) matrix; returns it symmetrized.
 
     Positive definite to double precision: a matrix whose smallest eigenvalue is within
@@ -255,7 +272,9 @@ def check_spd(name, value, n):
     return matrix
 
 
-def check_scalar_or_spd(name, value, n, *, allow_zero=False):
+def check_scalar_or_spd(
+    name: str, value: Any, n: int, *, allow_zero: bool = False
+) -> float | NDArray[np.float64]:
     """An isotropic variance (positive scalar, meaning value * I) or an SPD (n, n) matrix."""
     if np.ndim(value) == 0:
         if allow_zero:
@@ -264,7 +283,7 @@ def check_scalar_or_spd(name, value, n, *, allow_zero=False):
     return check_spd(name, value, n)
 
 
-def check_transition(value, n):
+def check_transition(value: Any, n: int) -> float | NDArray[np.float64]:
     """Transition: a scalar a (A = a I) or a finite (n, n) matrix."""
     if np.ndim(value) == 0:
         return check_real("transition", value)

@@ -9,6 +9,8 @@ saying which extra to install.
 
 import importlib
 import importlib.util
+from collections.abc import Iterable
+from types import ModuleType
 
 __all__ = ["MissingDependencyError", "optional", "require"]
 
@@ -17,14 +19,14 @@ class MissingDependencyError(ImportError):
     """An optional package is not installed; the message names the extra to install."""
 
 
-def _message(module, extra, what):
+def _message(module: str, extra: str, what: str) -> str:
     return (
         f"{what} needs {module}, which is not installed: pip install 'skf_ref[{extra}]' "
         f"(or pip install {module})"
     )
 
 
-def optional(module, extra, what="this"):
+def optional(module: str, extra: str, what: str = "this") -> ModuleType:
     """Import an optional module, or raise :class:`MissingDependencyError` naming the extra.
 
     Parameters
@@ -57,7 +59,7 @@ def optional(module, extra, what="this"):
         raise MissingDependencyError(_message(module, extra, what)) from err
 
 
-def require(modules, extra, what):
+def require(modules: Iterable[str], extra: str, what: str) -> None:
     """Raise :class:`MissingDependencyError` unless every module is installed (not imported).
 
     Parameters

@@ -10,21 +10,24 @@ import logging
 import os
 import sys
 import time
+from collections.abc import Iterator
+from types import FrameType
+from typing import TextIO
 
 __all__ = ["caller_stacklevel", "logger", "progress", "verbosity"]
 
 _PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
 
 
-class _Stderr(logging.StreamHandler):
+class _Stderr(logging.StreamHandler[TextIO]):
     """Writes to ``sys.stderr`` as it is when a message comes (redirections included)."""
 
     @property
-    def stream(self):
+    def stream(self) -> TextIO:
         return sys.stderr
 
     @stream.setter
-    def stream(self, value):
+    def stream(self, value: TextIO) -> None:
         pass
 
 
@@ -37,7 +40,7 @@ if not logger.handlers:  # once per process: messages alone, on stderr, as MNE p
     logger.propagate = False
 
 
-def _level(verbose):
+def _level(verbose: bool | str | int | None) -> int:
     from .checks import InputError
 
     if verbose is None:
@@ -55,7 +58,7 @@ def _level(verbose):
 
 
 @contextlib.contextmanager
-def verbosity(verbose):
+def verbosity(verbose: bool | str | int | None) -> Iterator[None]:
     """Set the logger's level for the duration of a call (``verbose=`` of the caller).
 
     Examples
@@ -72,7 +75,7 @@ def verbosity(verbose):
 
 
 @contextlib.contextmanager
-def progress(text):
+def progress(text: str) -> Iterator[None]:
     """Log ``text`` and, when the block ends, the seconds it took (INFO)."""
     start = time.perf_counter()
     logger.info("%s ...", text)
@@ -80,11 +83,12 @@ def progress(text):
     logger.info("%s: %.1f s", text, time.perf_counter() - start)
 
 
-def caller_stacklevel():
+def caller_stacklevel() -> int:
     """``stacklevel`` for a ``warnings.warn`` in the calling function that points at the
     first frame outside skf_ref: the user's line, however deep inside the package the
     warning is raised."""
-    frame, level = sys._getframe(1), 1  # the function that calls warnings.warn
+    frame: FrameType | None = sys._getframe(1)  # the function that calls warnings.warn
+    level = 1
     while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE):
         frame, level = frame.f_back, level + 1
     return level

@@ -2,10 +2,17 @@
 
 import os
 
-__all__ = ["available_memory", "covariance_memory", "require", "spectral_memory"]
+__all__ = [
+    "available_memory",
+    "check_reconstruction",
+    "covariance_memory",
+    "memory_budget",
+    "require",
+    "spectral_memory",
+]
 
 
-def available_memory():
+def available_memory() -> int:
     """Bytes of memory available to new allocations (``MemAvailable`` on Linux).
 
     Returns
@@ -22,7 +29,19 @@ def available_memory():
     return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
 
 
-def require(nbytes, what, budget=None):
+def memory_budget(memory_limit: float | None = None) -> float:
+    """The bytes a computation may use: ``memory_limit``, or by default half the memory
+    available now (:func:`available_memory`).
+
+    Examples
+    --------
+    >>> memory_budget(2**30)
+    1073741824.0
+    """
+    return available_memory() / 2 if memory_limit is None else float(memory_limit)
+
+
+def require(nbytes: float, what: str, budget: float | None = None) -> None:
     """Raise ``MemoryError`` before allocating ``nbytes`` that do not fit.
 
     Parameters
@@ -40,18 +59,16 @@ def require(nbytes, what, budget=None):
     ...
     MemoryError: a test array needs 1.02e+03 GiB, over the memory budget of 1 GiB
     """
-    if budget is None:
-        budget, whose = available_memory() / 2, " (half the memory available now)"
-    else:
-        whose = ""
-    if nbytes > budget:
+    whose = " (half the memory available now)" if budget is None else ""
+    allowed = memory_budget(budget)
+    if nbytes > allowed:
         raise MemoryError(
             f"{what} needs {nbytes / 2**30:.3g} GiB, over the memory budget of "
-            f"{budget / 2**30:.3g} GiB{whose}"
+            f"{allowed / 2**30:.3g} GiB{whose}"
         )
 
 
-def spectral_memory(n_sources, n_channels, n_times):
+def spectral_memory(n_sources: int, n_channels: int, n_times: int) -> int:
     """Bytes the spectral path needs for its model, before any (n, T) output.
 
     Parameters
@@ -74,7 +91,9 @@ def spectral_memory(n_sources, n_channels, n_times):
     return 8 * (4 * n_sources * n_channels + 8 * n_channels * n_times)
 
 
-def covariance_memory(n_sources, n_times, method="dense", smoother=None):
+def covariance_memory(
+    n_sources: int, n_times: int, method: str = "dense", smoother: str | None = None
+) -> int:
     """Bytes the covariance-storing paths need for their (n, n) matrices.
 
     Parameters
@@ -97,3 +116,56 @@ def covariance_memory(n_sources, n_times, method="dense", smoother=None):
     """
     per_step = 3 if method == "dense" else 2 if smoother is None else 5
     return 8 * n_sources**2 * (per_step * n_times + 8)
+
+
+def check_reconstruction(
+    method: str,
+    smoother: str | None,
+    n_sources: int,
+    n_channels: int,
+    n_times: int,
+    memory_limit: float | None = None,
+) -> None:
+    """Refuse, before any work, a reconstruction that does not fit in the memory budget.
+
+    Parameters
+    ----------
+    method : {"spectral", "dense", "filterpy"}
+    smoother : {None, "rts-standardized", "rts-state"}
+    n_sources, n_channels, n_times : int
+        The lead field's columns, its rows (or the whitened data's rank) and the steps.
+    memory_limit : float, optional
+        Bytes allowed; default half the available memory (:func:`memory_budget`).
+
+    Raises
+    ------
+    MemoryError
+        Saying what needs the memory and what to do instead.
+
+    Examples
+    --------
+    >>> check_reconstruction("dense", None, 5000, 64, 100, memory_limit=2**30)
+    Traceback (most recent call last):
+    ...
+    MemoryError: method='dense' stores 100 covariances of 5000^2 entries: about 57.4 GiB, ...
+    """
+    allowed = memory_budget(memory_limit)
+    if method == "spectral":
+        needed = spectral_memory(n_sources, n_channels, n_times)
+        if needed > allowed:
+            raise MemoryError(
+                f"method='spectral' needs about {needed / 2**30:.3g} GiB for its model (the "
+                f"SVD of a ({n_channels}, {n_sources}) lead field and {n_times} steps of its "
+                f"recursions), over the memory budget of {allowed / 2**30:.3g} GiB "
+                "(memory_limit; default half the available memory); reconstruct shorter "
+                "segments of the data"
+            )
+        return
+    needed = covariance_memory(n_sources, n_times, method, smoother)
+    if needed > allowed:
+        raise MemoryError(
+            f"method={method!r} stores {n_times} covariances of {n_sources}^2 entries: about "
+            f"{needed / 2**30:.3g} GiB, over the memory budget of {allowed / 2**30:.3g} GiB "
+            "(memory_limit; default half the available memory). For random-walk models with "
+            "isotropic priors use method='spectral', which never forms an n_sources^2 matrix."
+        )

@@ -7,11 +7,12 @@ values themselves, whatever the array's dtype now.
 """
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["average_referenced", "precision", "zero_tolerance"]
 
 
-def precision(values):
+def precision(values: ArrayLike) -> float:
     """Machine epsilon of the precision ``values`` carry.
 
     Parameters
@@ -40,7 +41,7 @@ def precision(values):
     return float(np.finfo(np.float32 if single else np.float64).eps)
 
 
-def zero_tolerance(values):
+def zero_tolerance(values: ArrayLike) -> float:
     """How small, relative to the values' size, a result that is 0 up to rounding can be.
 
     ``sqrt(eps)`` of :func:`precision`: half the digits. Rounding in the values' precision
@@ -57,7 +58,7 @@ def zero_tolerance(values):
     return float(np.sqrt(precision(values)))
 
 
-def average_referenced(values, per_column=False):
+def average_referenced(values: ArrayLike, per_column: bool = False) -> bool:
     """Whether the mean over the rows (channels) is 0 to the values' precision.
 
     Parameters

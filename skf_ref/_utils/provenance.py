@@ -7,7 +7,9 @@ so a number can be traced to the code and the machine configuration that compute
 
 import os
 import platform
+from collections.abc import Iterable
 from importlib import metadata
+from typing import Any
 
 from ..version import __version__
 
@@ -17,7 +19,7 @@ __all__ = ["PACKAGES", "blas_threads", "machine", "package_versions"]
 PACKAGES = ("skf_ref", "numpy", "scipy", "filterpy", "mne")
 
 
-def package_versions(packages=PACKAGES):
+def package_versions(packages: Iterable[str] = PACKAGES) -> dict[str, str]:
     """Versions of the packages results depend on, by name.
 
     skf_ref's own comes from the package itself, so it is known when run from a checkout.
@@ -45,7 +47,7 @@ def package_versions(packages=PACKAGES):
     return versions
 
 
-def blas_threads():
+def blas_threads() -> list[dict[str, Any]]:
     """The BLAS libraries loaded in this process and their thread counts (threadpoolctl).
 
     Returns
@@ -77,7 +79,7 @@ def blas_threads():
     return sorted(entries, key=lambda entry: (str(entry["library"]), str(entry["version"])))
 
 
-def machine():
+def machine() -> dict[str, Any]:
     """This machine and process: CPUs, platform, Python, BLAS threads, package versions.
 
     Returns

@@ -8,7 +8,8 @@ hidden temporary in the same folder, then renamed). Anything else is a bug in th
 and shows its traceback. ``--debug`` shows the traceback of every error.
 
 This module imports nothing heavy at import time, so that Ctrl-C while numpy, scipy or MNE
-load is an interruption like any other.
+load is an interruption like any other. Its names (``__all__``) are the public API; the
+subcommands' modules are their implementation.
 """
 
 from __future__ import annotations

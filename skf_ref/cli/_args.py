@@ -1,7 +1,11 @@
 """Argument parsing for ``skf-ref``: one-line errors naming the flag, defaults in the help."""
 
+from __future__ import annotations
+
 import argparse
 import re
+from collections.abc import Callable
+from typing import Any, NoReturn
 
 from .._utils.checks import MAX_DB, InputError, check_int, check_real
 
@@ -15,8 +19,12 @@ __all__ = [
     "report_tuning",
 ]
 
-# Negative numbers, infinities and NaN are values, not options: "--snr-db -inf" parses.
-_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+# Negative numbers, infinities and NaN are values, not options: "--snr-db -inf" parses, and so
+# does a range of them, "--pm-snr-db -40,20".
+_REAL = r"[-+]?((\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|inf|infinity|nan)"
+_NUMBER = re.compile(
+    rf"^-((\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|inf|infinity|nan)(,{_REAL})?$", re.IGNORECASE
+)
 
 
 class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -37,12 +45,12 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
 class Parser(argparse.ArgumentParser):
     """An argument parser whose errors are :class:`~skf_ref.InputError` (one line, exit 2)."""
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs.setdefault("formatter_class", _Formatter)
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = _NUMBER
 
-    def error(self, message):
+    def error(self, message: str) -> NoReturn:
         raise InputError(message)
 
 
@@ -67,36 +75,54 @@ def _typed(check):
     return parse
 
 
-def db(maximum=MAX_DB, auto=False):
+def db(maximum: float = MAX_DB, auto: bool = False) -> Callable[[str], Any]:
     """A level in dB: finite, within +-``maximum`` (10**(dB/10) far from overflow).
 
-    With ``auto``, the word "auto" is accepted too (priors chosen by the data).
+    With ``auto``, priors the data choose are accepted too: the word "auto" (the default
+    range) or a range ``LOW,HIGH`` in dB to search, e.g. ``-40,20`` (a tuple).
+
+    Examples
+    --------
+    >>> parse = db(auto=True)
+    >>> parse("-3"), parse("auto"), parse("-40,20")
+    (-3.0, 'auto', (-40.0, 20.0))
     """
 
-    def level(text):
-        if auto and text == "auto":
-            return text
+    def number(text):
         value = check_real("value", _number(text))
         if abs(value) > maximum:
             raise InputError(f"value must be within +-{maximum:g} dB, got {text}")
         return value
 
+    def level(text):
+        if auto and text == "auto":
+            return text
+        if auto and "," in text:
+            parts = text.split(",")
+            if len(parts) != 2:
+                raise InputError(f"value must be one number, auto or LOW,HIGH, got {text!r}")
+            low, high = (number(part.strip()) for part in parts)
+            if not low < high:
+                raise InputError(f"value must be a range LOW,HIGH with LOW < HIGH, got {text!r}")
+            return (low, high)
+        return number(text)
+
     return _typed(level)
 
 
-def nonnegative(maximum=None):
+def nonnegative(maximum: float | None = None) -> Callable[[str], float]:
     """A finite number >= 0 (and <= ``maximum``)."""
     return _typed(
         lambda text: check_real("value", _number(text), nonnegative=True, maximum=maximum)
     )
 
 
-def positive():
+def positive() -> Callable[[str], float]:
     """A finite number > 0."""
     return _typed(lambda text: check_real("value", _number(text), positive=True))
 
 
-def integer(minimum=None, maximum=None):
+def integer(minimum: int | None = None, maximum: int | None = None) -> Callable[[str], int]:
     """An integer in [minimum, maximum]."""
 
     def parse(text):
@@ -109,12 +135,14 @@ def integer(minimum=None, maximum=None):
     return _typed(parse)
 
 
-def report_tuning(args, tuning):
-    """Print the priors the data chose, and put them in ``args`` (for titles, settings)."""
+def report_tuning(args: argparse.Namespace, tuning: Any) -> None:
+    """Print the priors the data chose, and put them in ``args`` (for titles, settings);
+    what was asked for (``"auto"``, a range) goes to ``args.searched``."""
     import sys
 
     if tuning is None:
         return
+    args.searched = {"pm_snr_db": args.pm_snr_db, "ep_snr_db": args.ep_snr_db}
     args.pm_snr_db, args.ep_snr_db = tuning.pm_snr_db, tuning.ep_snr_db
     args.tuned = True
     print(
@@ -124,13 +152,22 @@ def report_tuning(args, tuning):
     )
 
 
-def add_skf_options(parser, *, exponent, smoother, smoother_help):
+def add_skf_options(parser: Any, *, exponent: Any, smoother: Any, smoother_help: str) -> None:
     """The SKF's options, shared by the commands that run one: priors, exponent, smoother."""
+    chosen = "; or chosen by the data: auto (searched in -20..40 dB) or LOW,HIGH (e.g. -40,20)"
     parser.add_argument(
-        "--pm-snr-db", type=db(auto=True), default=0.0, help="PM-SNR prior (dB, or auto)"
+        "--pm-snr-db",
+        type=db(auto=True),
+        default=0.0,
+        metavar="DB",
+        help=f"PM-SNR prior (dB{chosen})",
     )
     parser.add_argument(
-        "--ep-snr-db", type=db(auto=True), default=20.0, help="EP-SNR prior (dB, or auto)"
+        "--ep-snr-db",
+        type=db(auto=True),
+        default=20.0,
+        metavar="DB",
+        help=f"EP-SNR prior (dB{chosen})",
     )
     parser.add_argument(
         "--exponent", type=nonnegative(), default=exponent, help="standardization exponent alpha"

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from .._utils.checks import InputError
-from ..method.settings import RECOMMENDED_SETTING
+from ..method import RECOMMENDED_SETTING
 from ..study.sizes import DEFAULT_POSITIONS, SCENARIO_MIN_POSITIONS
 from ._args import add_skf_options, db, integer
 
@@ -129,6 +129,8 @@ def run(args: argparse.Namespace) -> Any:
 
 
 def _db(value):
+    if isinstance(value, tuple):  # a range searched
+        return f"searched in {value[0]:g}..{value[1]:g} dB"
     return value if value == "auto" else f"{value:g} dB"
 
 

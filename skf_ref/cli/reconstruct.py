@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from .._utils.checks import InputError
-from ..method.settings import RECOMMENDED_SETTING
+from ..method import RECOMMENDED_SETTING
 from ._args import add_skf_options, positive, report_tuning
 
 __all__ = ["add_parser", "run"]
@@ -20,13 +20,17 @@ examples:
       --noise-cov sample-cov.fif --out sample-skf-vl.stc --plot sample-skf.png
   skf-ref reconstruct --leadfield L.npy --data Y.csv --noise-std 1e-6 --out skf.npz
 
-The MNE route (--forward/--evoked) matches channels by name, gives data and lead field
-the average reference (the evoked's projector, or its average-referenced data), whitens
-with the noise covariance reduced to its rank and writes an MNE source estimate (.stc,
-.h5) or arrays (.npz). The array route (--leadfield/--data) runs skf_ref.reconstruct on
-the arrays as they are (rows matched by name when both files name them) and writes .npz.
-Beside the output, NAME.json records every setting, the channels used and left out, and
-the package versions.
+The MNE route (--forward/--evoked) takes every MEG and EEG channel the evoked, the
+forward and the noise covariance share (--no-meg, --no-eeg leave a type out), matched by
+name and type; gives data and lead field the average reference (the evoked's projector,
+or its average-referenced data); whitens with the noise covariance of one trial divided
+by the evoked's nave (an epochs file is averaged first, and says so), reduced to its
+rank; and writes an MNE source estimate (.stc, .h5) or arrays (.npz). The array route
+(--leadfield/--data) runs skf_ref.reconstruct on the arrays as they are (rows matched by
+name when both files name them) and writes .npz. The priors are numbers in dB, or chosen
+by the data: auto, or a range to search, e.g. --pm-snr-db -40,20. Beside the output,
+NAME.json records every setting, the nave, the channels used and left out, and the
+package versions.
 """
 
 _OUTPUTS = (".npz", ".stc", ".h5")
@@ -39,7 +43,7 @@ def _output(text: str) -> Path:
     return path
 
 
-def add_parser(subparsers):
+def add_parser(subparsers: Any) -> None:
     """Add ``reconstruct`` to the ``skf-ref`` subcommands."""
     parser = subparsers.add_parser(
         "reconstruct",
@@ -49,7 +53,11 @@ def add_parser(subparsers):
     )
     inputs = parser.add_argument_group("inputs: --forward and --evoked, or --leadfield and --data")
     inputs.add_argument("--forward", type=Path, help="MNE forward solution (-fwd.fif)")
-    inputs.add_argument("--evoked", type=Path, help="MNE evoked (-ave.fif) or a recording")
+    inputs.add_argument(
+        "--evoked",
+        type=Path,
+        help="MNE evoked (-ave.fif), epochs (-epo.fif: averaged) or a recording",
+    )
     inputs.add_argument("--condition", help="the evoked's condition (name or index)")
     inputs.add_argument("--leadfield", type=Path, help="lead field: .npy, .npz, .mat, -fwd.fif")
     inputs.add_argument("--data", type=Path, help="data: .npy, .npz, .mat, .csv, MNE formats")
@@ -58,7 +66,10 @@ def add_parser(subparsers):
     noise.add_argument("--noise-cov", type=Path, help="MNE noise covariance (-cov.fif)")
     noise.add_argument("--noise-std", type=positive(), help="noise standard deviation (V)")
     noise.add_argument(
-        "--baseline", action="store_true", help="estimate the noise from the samples at t <= 0"
+        "--baseline",
+        action="store_true",
+        help="estimate the noise from the samples at t <= 0 (an evoked's own baseline: the "
+        "data are whitened with it, whatever their nave)",
     )
     model = parser.add_argument_group("the SKF")
     add_skf_options(
@@ -82,8 +93,14 @@ def add_parser(subparsers):
     )
     model.add_argument(
         "--meg",
-        action="store_true",
-        help="MNE route: use the MEG channels too (magnetometers and gradiometers)",
+        action=argparse.BooleanOptionalAction,
+        help="MNE route: use the MEG channels (an error if there are none), or leave them "
+        "out; default: when the evoked, the forward and the noise covariance share them",
+    )
+    model.add_argument(
+        "--eeg",
+        action=argparse.BooleanOptionalAction,
+        help="MNE route: use the EEG channels, or leave them out; default as --meg",
     )
     model.add_argument(
         "--average-reference",
@@ -117,13 +134,9 @@ def _route(args):
         raise InputError("give exactly one of --noise-cov, --noise-std or --baseline")
     if array_route and args.out.suffix != ".npz":
         raise InputError("argument --out: the array route writes .npz (no source space)")
-    if args.meg and not mne_route:
-        raise InputError("argument --meg: MEG channels are picked on the MNE route only")
-    if args.meg and args.noise_std is not None:
-        raise InputError(
-            "argument --meg: one --noise-std cannot whiten MEG and EEG; give --noise-cov or "
-            "--baseline"
-        )
+    for flag in ("meg", "eeg"):
+        if getattr(args, flag) is not None and not mne_route:
+            raise InputError(f"argument --{flag}: channel types are picked on the MNE route only")
     _check_outputs(args)
     return "mne" if mne_route else "arrays"
 
@@ -208,7 +221,7 @@ def _check_stc_format(args: argparse.Namespace) -> None:
 def _settings(args, route, extra):
     from .._utils.provenance import machine
 
-    keys = ("pm_snr_db", "ep_snr_db", "exponent", "smoother", "method", "pick_ori", "meg")
+    keys = ("pm_snr_db", "ep_snr_db", "exponent", "smoother", "method", "pick_ori", "meg", "eeg")
     files = ("forward", "evoked", "condition", "leadfield", "data", "key", "noise_cov")
     return {
         "route": route,
@@ -216,6 +229,8 @@ def _settings(args, route, extra):
         **{k: str(getattr(args, k)) for k in files if getattr(args, k) is not None},
         "noise_std": args.noise_std,
         "baseline": args.baseline,
+        "nave": getattr(args, "nave", None),
+        "priors_searched": getattr(args, "searched", None),
         **extra,
         "machine": machine(),
     }
@@ -235,17 +250,32 @@ def _read_cov(path):
 
 
 def _about_noise_cov(args, err):
-    """An error about the noise covariance, named by its flag and file."""
+    """An error about the noise or the channel types, named by its flag (and file)."""
     text = str(err)
     if args.noise_cov is not None and text.startswith("noise_cov"):
         return InputError(f"argument --noise-cov: {args.noise_cov}: {text}")
+    if text.startswith(("meg=", "eeg=")):  # a type asked for and absent
+        flag, rest = text[:3], text.split(" ", 1)[1]
+        return InputError(
+            f"argument --{flag}: {rest.replace(f'leave {flag}=None', f'drop --{flag}')}"
+        )
+    if args.noise_std is not None and text.startswith("noise_std must be a dict"):
+        return InputError(
+            "argument --noise-std: one standard deviation cannot whiten channels of several "
+            "types (MEG and EEG, or magnetometers and gradiometers): give --noise-cov or "
+            "--baseline, or leave a type out (--no-meg, --no-eeg)"
+        )
     return err
 
 
+_EPOCHS = ("-epo.fif", "_epo.fif", "-epo.fif.gz")
+
+
 def _mne_route(args):
-    from ..io.apply import apply_skf, baseline_covariance
+    from ..io.apply import apply_skf
     from ..io.files import read_data, read_leadfield
-    from ..io.operator import make_skf_operator
+    from ..io.make_operator import make_skf_operator
+    from ..io.noise_cov import baseline_covariance
 
     recording = read_data(args.evoked, condition=args.condition)
     if recording.evoked is None:
@@ -253,12 +283,19 @@ def _mne_route(args):
     forward = read_leadfield(args.forward).forward
     if forward is None:
         raise InputError(f"argument --forward: {args.forward} is not an MNE -fwd.fif")
-    evoked, types = recording.evoked, dict(meg=args.meg, eeg=True)
-    if args.noise_cov is not None:
-        noise_cov = _read_cov(args.noise_cov)
-    else:
-        noise_cov = baseline_covariance(evoked, **types) if args.baseline else None
+    evoked, types = recording.evoked, dict(meg=args.meg, eeg=args.eeg)
+    args.nave = evoked.nave
+    if args.evoked.name.lower().endswith(_EPOCHS) and not args.quiet:
+        print(
+            f"--evoked {args.evoked}: epochs, averaged: {evoked.nave} epochs, so the noise "
+            f"covariance is divided by nave = {evoked.nave}",
+            file=sys.stderr,
+        )
     try:
+        if args.noise_cov is not None:
+            noise_cov = _read_cov(args.noise_cov)
+        else:
+            noise_cov = baseline_covariance(evoked, **types) if args.baseline else None
         operator = make_skf_operator(
             evoked.info,
             forward,
@@ -293,8 +330,8 @@ def _mne_route(args):
 def _array_route(args):
 
     from ..io.files import read_data, read_leadfield
-    from ..method.reconstruct import reconstruct
-    from ..method.tuning import choose_priors
+    from ..method import reconstruct
+    from ..method._tuning import choose_priors
 
     leadfield = read_leadfield(args.leadfield, key=args.key)
     recording = read_data(args.data, key=args.key, condition=args.condition)
@@ -313,7 +350,7 @@ def _array_route(args):
         )
     if args.average_reference:
         L, Y = L - L.mean(axis=0), Y - Y.mean(axis=0)
-    noise = _array_noise(args, recording, Y, L.shape[0])
+    noise = _array_noise(args, recording, Y)
     try:
         theta0, q, tuning = choose_priors(
             L, Y, **noise, pm_snr_db=args.pm_snr_db, ep_snr_db=args.ep_snr_db
@@ -335,21 +372,18 @@ def _array_route(args):
     return rec, None, recording.times, leadfield.positions
 
 
-def _array_noise(args, recording, Y, n_channels):
+def _array_noise(args, recording, Y):
     import numpy as np
+
+    from ..io.noise_cov import baseline_matrix
 
     if args.noise_std is not None:
         return {"noise_std": args.noise_std}
     if args.baseline:
         if recording.times is None:
             raise InputError(f"--baseline needs the times of the samples; {args.data} has none")
-        baseline = Y[:, recording.times <= 0]
-        if baseline.shape[1] < n_channels:
-            raise InputError(
-                f"--baseline needs at least {n_channels} samples at t <= 0 (one per channel), "
-                f"got {baseline.shape[1]}"
-            )
-        return {"noise_cov": baseline @ baseline.T / baseline.shape[1]}
+        instead = "give --noise-cov or --noise-std"
+        return {"noise_cov": baseline_matrix(Y, recording.times, "--baseline", instead)}
     if recording.ch_names is None:
         raise InputError("--noise-cov needs channel names in --data to match the covariance's")
     cov = _read_cov(args.noise_cov)

@@ -1,5 +1,9 @@
 """Conformance cases: small fixed problems and the dense path's answers, for any language.
 
+The names below (``__all__``) are the public API; the modules (``cases``, ``suite``,
+``case_files``, ``compare``, ``mistakes``, ``precision``, ``their_outputs``) are their
+implementation, whose paths may change.
+
 A lab that writes the SKF in MATLAB, C++, Julia or on a GPU runs these cases and compares
 its outputs with :func:`skf_ref.compare` (``skf-ref compare``). Each case is a few channels,
 sources and steps, generated once from a fixed seed. The suite is pinned and versioned

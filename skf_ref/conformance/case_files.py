@@ -11,8 +11,8 @@ import numpy as np
 
 from .._utils.atomic_files import atomic_path, check_output_path
 from .._utils.checks import InputError, check_array, check_instance
-from ..method.reconstruct import check_smoother
-from ..method.result import readonly
+from ..method._result import readonly
+from ..method._settings import check_smoother
 from .cases import EXTRAS, INPUTS, OUTPUTS, Case, as_value
 
 __all__ = ["FORMATS", "read_case", "write_case"]

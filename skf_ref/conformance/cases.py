@@ -13,10 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from ..method.outputs import OUTPUTS
-from ..method.priors import priors_from_snr
-from ..method.reconstruct import reconstruct
-from ..method.result import Reconstruction, readonly
+from ..method import Reconstruction, priors_from_snr, reconstruct
+from ..method._outputs import OUTPUTS
+from ..method._result import readonly
 from ..version import __version__
 
 __all__ = [

@@ -2,8 +2,8 @@
 
 :func:`skf_ref.compare` runs every suspect that applies to a conformance case and names those that
 reproduce an implementation's numbers to the tolerance. Each suspect is the reference computation
-with one mistake, built from the pieces of :mod:`skf_ref.method.paths.dense` and
-:mod:`skf_ref.method.standardization`, and cites the equation it gets wrong (docs/model.md states
+with one mistake, built from the pieces of ``skf_ref.method._paths.dense`` and
+``skf_ref.method._standardization``, and cites the equation it gets wrong (docs/model.md states
 them all). A suspect returns the outputs a :class:`~skf_ref.Reconstruction` has (``z``,
 ``z_filtered``, ``x``, ``x_filtered``, ``weights`` as (n_sources, n_times) arrays,
 ``log_likelihood``), or None when the mistake cannot happen in that case (no smoother to swap, no
@@ -18,12 +18,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..method.model import StateSpaceModel
-from ..method.outputs import ARRAYS
-from ..method.paths import dense
-from ..method.priors import CONVENTIONS, priors_from_snr
-from ..method.result import Reconstruction
-from ..method.standardization import inverse_sqrt, raw_weights, standardize
+from ..method import StateSpaceModel, priors_from_snr
+from ..method._outputs import ARRAYS
+from ..method._paths import dense
+from ..method._priors import CONVENTIONS
+from ..method._standardization import inverse_sqrt, raw_weights, standardize
 
 if TYPE_CHECKING:
     from .cases import Case
@@ -65,15 +64,9 @@ def _matrices(model):
 def _outputs(filtered, model, case, smoother=None):
     """Smooth (the case's smoother unless another is given) and package a filter's output."""
     smoother = smoother or case.inputs["smoother"]
-    A = model.matrix("transition")
-    rec = Reconstruction.from_filter(
-        filtered,
-        smoother,
-        lambda sequence: dense.rts(sequence, filtered["P_filt"], filtered["P_pred"], A),
-        model=model,
-        exponent=filtered["exponent"],
-        method="suspect",
-    )
+    exponent = filtered["exponent"]
+    x, z = dense.smooth(filtered, smoother, model.matrix("transition"), exponent)
+    rec = dense.result(filtered, x, z, model, exponent, smoother, "suspect")
     return {**{name: getattr(rec, name) for name in ARRAYS}, "log_likelihood": rec.log_likelihood}
 
 

@@ -1,19 +1,24 @@
 """MNE-Python objects and files in, source estimates and files out.
 
-- :mod:`.operator`: :func:`make_skf_operator`, the SKF prepared once for an info, a
+- :mod:`.make_operator`: :func:`make_skf_operator`, the SKF prepared once for an info, a
   forward and a noise covariance (channels, reference and whitening done as MNE does);
+  :mod:`.operator`: :class:`SKFOperator`, what it prepared, applied;
 - :mod:`.apply`: :func:`apply_skf` on an ``mne.Evoked`` (with an operator, or a forward and
   a noise covariance in one call) and :func:`apply_skf_epochs`; :mod:`.raw`:
   :func:`apply_skf_raw` along a continuous recording;
 - :mod:`.channels` and :mod:`.noise_cov`: the channels an operator uses, their reference,
   and the noise covariance it whitens with;
+- :mod:`.operator_file`: operators saved and read (:func:`write_skf_operator`,
+  :func:`read_skf_operator`); :mod:`.stream`: a store written by :func:`apply_skf_raw`
+  read back as a source estimate over a span of time (:func:`read_skf_stream`);
 - :mod:`.stc`: a reconstruction as an MNE source estimate;
 - :mod:`.files`: lead fields and data from ``.npy``, ``.npz``, ``.mat``, ``.csv`` and MNE's
   ``.fif``; reconstructions written to ``.npz``, ``.mat``, ``.stc``/``.h5``;
 - :mod:`.zarr_dask`: outputs larger than memory, streamed to zarr or computed on Dask.
 
 MNE-Python, zarr and Dask are optional (the extras ``mne``, ``zarr``, ``dask``): they load
-when a function needs them. The names below load on first use.
+when a function needs them. The names below (``__all__``) are the public API and load on
+first use; the modules above are their implementation, whose paths may change.
 """
 
 import importlib
@@ -27,12 +32,14 @@ _HOMES = {
     "write_reconstruction": "files",
     "write_stc": "files",
     "SKFOperator": "operator",
-    "make_skf_operator": "operator",
+    "make_skf_operator": "make_operator",
+    "read_skf_operator": "operator_file",
+    "write_skf_operator": "operator_file",
+    "read_skf_stream": "stream",
     "apply_skf": "apply",
     "apply_skf_epochs": "apply",
     "apply_skf_raw": "raw",
     "baseline_covariance": "noise_cov",
-    "prepare": "apply",
     "make_stc": "stc",
     "stc_to_zarr": "zarr_dask",
     "to_dask": "zarr_dask",

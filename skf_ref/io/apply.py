@@ -1,7 +1,7 @@
 """The SKF on MNE-Python objects, modelled on ``apply_inverse`` and its kin.
 
 An evoked, epochs or a raw recording in, MNE source estimates out, through a prepared
-:class:`~skf_ref.io.operator.SKFOperator` (:func:`~skf_ref.io.operator.make_skf_operator`:
+:class:`~skf_ref.io.operator.SKFOperator` (:func:`~skf_ref.io.make_operator.make_skf_operator`:
 channels, reference, whitening, SVD, priors; see that module):
 
 - :func:`apply_skf`: an ``mne.Evoked``, with an operator or, in one call, with a forward
@@ -10,54 +10,23 @@ channels, reference, whitening, SVD, priors; see that module):
 - :func:`skf_ref.io.raw.apply_skf_raw`: a continuous recording (its own module).
 """
 
-import warnings
-from dataclasses import dataclass
+from __future__ import annotations
 
-import numpy as np
+from collections.abc import Iterator
+from typing import Any
 
 from .._utils.checks import InputError, InputTypeError, check_choice, check_instance, describe
 from .._utils.extras import optional
-from .._utils.log import caller_stacklevel, verbosity
+from .._utils.log import logger, verbosity
+from .make_operator import make_skf_operator
 from .noise_cov import baseline_covariance
-from .operator import SKFOperator, make_skf_operator
+from .operator import SKFOperator
 from .stc import PICK_ORIS
 
-__all__ = ["PICK_ORIS", "WhitenedProblem", "apply_skf", "apply_skf_epochs", "prepare"]
+__all__ = ["apply_skf", "apply_skf_epochs"]
 
 
-@dataclass(frozen=True, eq=False)
-class WhitenedProblem:
-    """The SKF's inputs from MNE objects, whitened: unit free, noise covariance ``I``.
-
-    Attributes
-    ----------
-    leadfield : ndarray, shape (rank, n_sources)
-        Whitened lead field ``W L``; free orientation in MNE's x, y, z (head coordinates).
-    data : ndarray, shape (rank, n_times)
-        Whitened data ``W Y``.
-    ch_names : list of str
-        The channels used, in the evoked's order.
-    rank : int
-        Rank of the noise covariance after projection (rows of ``W``).
-    forward : mne.Forward
-        The forward restricted to ``ch_names`` (free orientation in head coordinates).
-    n_components : int
-        Columns per source position: 3 (free orientation) or 1 (fixed).
-    tmin, tstep : float
-        First sample's time and the sampling interval, seconds.
-    """
-
-    leadfield: np.ndarray
-    data: np.ndarray
-    ch_names: list
-    rank: int
-    forward: object
-    n_components: int
-    tmin: float
-    tstep: float
-
-
-def _check_evoked(evoked):
+def _check_evoked(evoked: Any) -> None:
     mne = optional("mne", "mne", "apply_skf")
     if not isinstance(evoked, mne.Evoked):
         raise InputTypeError(f"evoked must be an mne.Evoked, got {describe(evoked)}")
@@ -79,19 +48,10 @@ def _operator(evoked, forward, noise_cov, noise_std, snrs, types, verbose):
         raise InputTypeError(
             f"forward must be an SKFOperator or an mne.Forward, got {describe(forward)}"
         )
-    types = dict(meg=types["meg"] or False, eeg=True if types["eeg"] is None else types["eeg"])
-    if isinstance(noise_cov, str) and noise_cov == "baseline" and noise_std is None:
-        noise_cov = baseline_covariance(evoked, **types)
-    elif isinstance(noise_cov, (int, float, np.floating)) and not isinstance(noise_cov, bool):
-        warnings.warn(
-            "a number as noise_cov is a noise standard deviation: give it as noise_std= (the "
-            "keyword of reconstruct and the command line); noise_cov=<float> goes in 0.4",
-            FutureWarning,
-            stacklevel=caller_stacklevel(),
-        )
-        noise_cov, noise_std = None, noise_cov
-    elif isinstance(noise_cov, str):
+    if isinstance(noise_cov, str):
         check_choice("noise_cov", noise_cov, ("baseline",))
+        if noise_std is None:
+            noise_cov = baseline_covariance(evoked, **types)
     snrs = {
         name: default if snrs[name] is None else snrs[name]
         for name, default in (("pm_snr_db", 0.0), ("ep_snr_db", 20.0))
@@ -101,64 +61,36 @@ def _operator(evoked, forward, noise_cov, noise_std, snrs, types, verbose):
     )
 
 
-def prepare(evoked, forward, noise_cov=None, *, noise_std=None):
-    """Pick, reference and whiten MNE objects for the SKF.
-
-    Parameters
-    ----------
-    evoked : mne.Evoked
-    forward : mne.Forward or SKFOperator
-    noise_cov : mne.Covariance or "baseline", optional
-    noise_std : float, optional
-        The noise, as :func:`apply_skf` takes it.
-
-    Returns
-    -------
-    WhitenedProblem
-    """
-    _check_evoked(evoked)
-    snrs, types = dict(pm_snr_db=None, ep_snr_db=None), dict(meg=None, eeg=None)
-    operator = _operator(evoked, forward, noise_cov, noise_std, snrs, types, False)
-    data = operator.select(evoked.info, evoked.data, "evoked")
-    return WhitenedProblem(
-        leadfield=operator.leadfield,
-        data=operator.whitener @ data,
-        ch_names=operator.ch_names,
-        rank=operator.rank,
-        forward=operator.forward,
-        n_components=operator.n_components,
-        tmin=float(evoked.times[0]),
-        tstep=1.0 / evoked.info["sfreq"],
-    )
-
-
 def apply_skf(
-    evoked,
-    forward,
-    noise_cov=None,
+    evoked: Any,
+    forward: Any,
+    noise_cov: Any = None,
     *,
-    noise_std=None,
-    pm_snr_db=None,
-    ep_snr_db=None,
-    exponent=0.5,
-    smoother=None,
-    pick_ori=None,
-    method="auto",
-    meg=None,
-    eeg=None,
-    return_reconstruction=False,
-    verbose=None,
-):
+    noise_std: float | dict[str, float] | None = None,
+    pm_snr_db: Any = None,
+    ep_snr_db: Any = None,
+    exponent: float = 0.5,
+    smoother: str | None = None,
+    pick_ori: str | None = None,
+    method: str = "auto",
+    meg: bool | str | None = None,
+    eeg: bool | None = None,
+    return_reconstruction: bool = False,
+    verbose: bool | str | int | None = None,
+) -> Any:
     """The standardized Kalman filter on an evoked: an evoked in, a source estimate out.
 
     ``apply_skf(evoked, operator)`` applies an operator made by
     :func:`skf_ref.make_skf_operator`; ``apply_skf(evoked, forward, noise_cov)`` makes one
-    from the evoked's info first (channels matched by name, the average reference given to
-    data and lead field alike, whitening with the noise covariance reduced to its rank:
-    :mod:`skf_ref.io.operator`) and gives the same numbers. Priors come from PM-SNR and
-    EP-SNR on the whitened lead field, so they do not depend on units. Free-orientation
-    forwards give the per-position norm (``pick_ori=None``) or the three components
-    (``"vector"``); fixed orientation gives the signed estimate.
+    from the evoked's info first (channels matched by name and type, the average reference
+    given to data and lead field alike, whitening with the noise covariance reduced to its
+    rank: :mod:`skf_ref.io.make_operator`) and gives the same numbers. As MNE's
+    ``apply_inverse``, the evoked is whitened with the noise covariance divided by its
+    ``nave``: the covariance is that of one trial, and an average of ``nave`` trials has
+    ``nave`` times less noise. Priors come from PM-SNR and EP-SNR on the whitened lead
+    field, so they do not depend on units. Free-orientation forwards give the
+    per-position norm (``pick_ori=None``) or the three components (``"vector"``); fixed
+    orientation gives the signed estimate.
 
     Which setting. The defaults are the setting the package recommends
     (:data:`skf_ref.RECOMMENDED_SETTING`): the original SKF, exponent 0.5 without smoothing.
@@ -179,23 +111,26 @@ def apply_skf(
     Parameters
     ----------
     evoked : mne.Evoked
-        With an average-reference projector, or average referenced (EEG).
+        With an average-reference projector over its EEG channels, or average referenced
+        (EEG). Its ``nave`` divides the noise covariance.
     forward : SKFOperator or mne.Forward
         A prepared operator, or a forward solution (any channels it has beyond the
         evoked's are ignored).
     noise_cov : mne.Covariance or "baseline", optional
-        Without an operator: a covariance (e.g. ``mne.compute_covariance(epochs,
-        tmax=0)``) or ``"baseline"``: estimated from the evoked's samples at t <= 0
-        (:func:`baseline_covariance`). (A float here is read as ``noise_std``, with a
-        ``FutureWarning``.)
+        Without an operator: the covariance of one trial (e.g.
+        ``mne.compute_covariance(epochs, tmax=0)``), or ``"baseline"``: estimated from the
+        evoked's own samples at t <= 0 (:func:`skf_ref.io.baseline_covariance`: the
+        covariance of the average, times ``nave``, so that the evoked is whitened with the
+        covariance of its own baseline).
     noise_std : float or dict, optional
-        Or: the noise standard deviation in the evoked's units (see
-        :func:`skf_ref.make_skf_operator`). Give exactly one of the two.
-    pm_snr_db, ep_snr_db : float or "auto", optional
+        Or: the noise standard deviation of one trial in the evoked's units, one per
+        channel type in use (see :func:`skf_ref.make_skf_operator`). Give exactly one of
+        the two.
+    pm_snr_db, ep_snr_db : float or "auto" or (float, float), optional
         Without an operator: the priors' SNRs in dB (docs/model.md §4, "gain" convention,
-        whitened lead field), default 0 and 20 dB. ``"auto"``: chosen by the marginal
-        likelihood of the data (-20..40 dB); the reconstruction's ``tuning`` says what was
-        chosen.
+        whitened lead field), default 0 and 20 dB. ``"auto"`` or a range ``(low, high)``:
+        chosen by the marginal likelihood of the data (``"auto"``: -20 to 40 dB); the
+        reconstruction's ``tuning`` says what was chosen.
     exponent : float
         Standardization exponent alpha, >= 0.
     smoother : {None, "rts-standardized", "rts-state"}
@@ -203,13 +138,17 @@ def apply_skf(
         ``None``: per-position amplitude (free) or signed values (fixed); ``"vector"``: the
         three components of a free-orientation forward.
     method : {"auto", "filterpy", "dense", "spectral"}
-    meg, eeg : optional
-        Without an operator: the channel types (:func:`skf_ref.make_skf_operator`), default
-        EEG only.
+    meg : None or bool or "mag" or "grad"
+    eeg : None or bool
+        Without an operator: the channel types (:func:`skf_ref.make_skf_operator`);
+        default every MEG and EEG channel the evoked, the forward and the covariance
+        share, as ``apply_inverse``.
     return_reconstruction : bool
-        Also return the :class:`skf_ref.Reconstruction` (its arrays are in whitened units).
+        Also return the :class:`skf_ref.Reconstruction` (its arrays are in whitened units;
+        see :meth:`skf_ref.SKFOperator.reconstruct`).
     verbose : bool or str or int, optional
-        The "skf_ref" log's level: the channels used and left out are logged at INFO.
+        The "skf_ref" log's level: the channels used and left out, and ``nave``, are
+        logged at INFO.
 
     Returns
     -------
@@ -227,26 +166,35 @@ def apply_skf(
         )
         operator.check_pick_ori(pick_ori)
         data = operator.select(evoked.info, evoked.data, "evoked")
-        rec = operator.reconstruct(data, exponent=exponent, smoother=smoother, method=method)
+        logger.info(
+            "SKF: nave = %g, the evoked whitened with the noise covariance / %g",
+            evoked.nave,
+            evoked.nave,
+        )
+        rec = operator.reconstruct(
+            data, nave=evoked.nave, exponent=exponent, smoother=smoother, method=method
+        )
         stc = operator.to_stc(rec, evoked.times[0], 1.0 / evoked.info["sfreq"], pick_ori)
     return (stc, rec) if return_reconstruction else stc
 
 
 def apply_skf_epochs(
-    epochs,
-    operator,
+    epochs: Any,
+    operator: SKFOperator,
     *,
-    exponent=0.5,
-    smoother=None,
-    pick_ori=None,
-    method="auto",
-    return_generator=False,
-    verbose=None,
-):
+    exponent: float = 0.5,
+    smoother: str | None = None,
+    pick_ori: str | None = None,
+    method: str = "auto",
+    nave: float = 1,
+    return_generator: bool = False,
+    verbose: bool | str | int | None = None,
+) -> list[Any] | Iterator[Any]:
     """The SKF on each epoch, as MNE's ``apply_inverse_epochs``.
 
-    The operator's SVD and covariance recursion are computed once for the epochs' length;
-    each epoch costs its filter only (with ``"auto"`` priors, each epoch is tuned).
+    The operator's SVD and covariance recursion are computed once for the epochs' length,
+    and the epochs' info is checked once; each epoch costs its filter only (with
+    ``"auto"`` priors, each epoch is tuned).
 
     Parameters
     ----------
@@ -254,6 +202,9 @@ def apply_skf_epochs(
     operator : SKFOperator
     exponent, smoother, pick_ori, method
         As :func:`apply_skf`.
+    nave : float
+        The trials each epoch averages, as ``apply_inverse_epochs`` takes it: 1 (single
+        trials) unless the epochs hold averages.
     return_generator : bool
         Return a generator that computes an estimate when asked for, not a list.
     verbose : bool or str or int, optional
@@ -270,13 +221,15 @@ def apply_skf_epochs(
     operator.check_pick_ori(pick_ori)
     if not isinstance(return_generator, bool):
         raise InputTypeError(f"return_generator must be a bool, got {describe(return_generator)}")
-    settings = dict(exponent=exponent, smoother=smoother, method=method)
+    settings: dict[str, Any] = dict(exponent=exponent, smoother=smoother, method=method, nave=nave)
     tmin, tstep = float(epochs.times[0]), 1.0 / epochs.info["sfreq"]
+    with verbosity(verbose):
+        check = operator.check_info(epochs.info, "epochs")
 
-    def estimates():
+    def estimates() -> Iterator[Any]:
         with verbosity(verbose):
             for k, epoch in enumerate(epochs):
-                data = operator.select(epochs.info, epoch, f"epochs[{k}]")
+                data = operator.select(epochs.info, epoch, f"epochs[{k}]", check=check)
                 rec = operator.reconstruct(data, **settings)
                 yield operator.to_stc(rec, tmin, tstep, pick_ori)
 

@@ -334,7 +334,7 @@ def write_reconstruction(
         ``path`` does not end in ``.npz``, is a folder, or its folder does not exist.
     """
     from .._utils.provenance import package_versions
-    from ..method.result import Reconstruction
+    from ..method import Reconstruction
 
     path = check_output_path(path, suffixes=(".npz",))
     if not isinstance(reconstruction, Reconstruction):

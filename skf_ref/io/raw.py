@@ -1,15 +1,19 @@
 """The SKF along a continuous recording, as MNE's ``apply_inverse_raw``.
 
 The filter (and the smoother) runs along every sample of the segment asked for: one
-sequence, as the model has it (docs/model.md §1). Its estimate, n_sources x n_times, grows
-with the recording; it is returned in memory when it fits, or streamed to a zarr store one
-block of rows at a time (:func:`skf_ref.io.zarr_dask.stc_to_zarr`) when it does not.
+sequence, as the model has it (docs/model.md §1). The samples inside bad segments (``BAD_``
+annotations) are missing observations: predicted, not updated, without an estimate (NaN).
+Its estimate, n_sources x n_times, grows with the recording; it is returned in memory when
+it fits, or streamed to a zarr store one block of rows at a time
+(:func:`skf_ref.io.zarr_dask.stc_to_zarr`) when it does not.
 """
+
+import numpy as np
 
 from .._utils import memory
 from .._utils.checks import InputError, InputTypeError, check_instance, check_int, describe
 from .._utils.extras import optional
-from .._utils.log import verbosity
+from .._utils.log import logger, verbosity
 from .operator import SKFOperator
 
 __all__ = ["apply_skf_raw"]
@@ -28,12 +32,17 @@ def apply_skf_raw(
     overwrite=False,
     memory_limit=None,
     return_reconstruction=False,
+    reject_by_annotation=True,
     verbose=None,
 ):
     """The SKF along a continuous recording, as MNE's ``apply_inverse_raw``.
 
     The samples from ``start`` to ``stop`` are one sequence: the filter (and smoother) runs
-    along all of them. EP-SNR is over that sequence (docs/model.md §4: ``q`` is the
+    along all of them. Samples inside bad segments (annotations whose description starts
+    with ``"bad"``, as MNE's readers reject them) are missing observations: the filter
+    predicts across them without an update, so nothing inside a bad segment reaches the
+    estimate elsewhere, and the estimate there is NaN (docs/model.md §2); the log says which
+    segments were skipped. EP-SNR is over that sequence (docs/model.md §4: ``q`` is the
     walk's variance over the ``stop - start`` samples), as for an evoked. The estimate is
     returned in memory, or, with ``out``, streamed to a zarr store one block of rows at a
     time: no (n_sources, n_times) array is ever held whole.
@@ -58,7 +67,12 @@ def apply_skf_raw(
         without ``out``, a larger one is refused before any work.
     return_reconstruction : bool
         Also return the :class:`skf_ref.Reconstruction` (whitened units; its outputs are
-        computed when asked for, in blocks: ``.blocks``, ``.to_zarr``).
+        computed when asked for, in blocks: ``.blocks``, :func:`skf_ref.io.to_zarr`).
+    reject_by_annotation : bool
+        Make the samples inside ``BAD_`` annotations missing observations (default, as
+        MNE's readers); ``False`` filters every sample, bad segments included. The paper's
+        smoother, ``"rts-standardized"``, is undefined over missing steps: use
+        ``"rts-state"``, no smoother, or ``reject_by_annotation=False``.
     verbose : bool or str or int, optional
 
     Returns
@@ -73,6 +87,7 @@ def apply_skf_raw(
         raise InputTypeError(f"raw must be an mne.io.Raw, got {describe(raw)}")
     check_instance("operator", operator, SKFOperator, "an SKFOperator (make_skf_operator)")
     operator.check_pick_ori(pick_ori)
+    check_instance("reject_by_annotation", reject_by_annotation, bool, "True or False")
     start = check_int("start", start, minimum=0, maximum=raw.n_times - 1)
     stop = raw.n_times if stop is None else check_int("stop", stop, maximum=raw.n_times)
     if stop <= start:
@@ -82,20 +97,25 @@ def apply_skf_raw(
 
         check_new_store(out, overwrite)
     n_times, n = stop - start, operator.n_sources
-    budget = memory.available_memory() / 2 if memory_limit is None else memory_limit
     with verbosity(verbose):
         needed = _raw_picks(raw.info, operator)
-        memory.require(8 * len(needed) * n_times, f"{n_times} samples of raw", budget)
+        memory.require(8 * len(needed) * n_times, f"{n_times} samples of raw", memory_limit)
         if out is None:
             memory.require(
                 8 * 2 * n * n_times,
                 f"a source estimate of {n} sources x {n_times} samples in memory (give "
                 "out='NAME.zarr' to stream it to disk)",
-                budget,
+                memory_limit,
             )
         info = mne.pick_info(raw.info, needed)
-        data = raw.get_data(picks=needed, start=start, stop=stop)
-        data = operator.select(info, data, "raw")
+        data = raw.get_data(
+            picks=needed,
+            start=start,
+            stop=stop,
+            reject_by_annotation="NaN" if reject_by_annotation else None,
+            verbose=False,  # the segments skipped are logged below
+        )
+        data = _select(operator, info, data, raw.times[start:stop])
         rec = operator.reconstruct(
             data, exponent=exponent, smoother=smoother, memory_limit=memory_limit
         )
@@ -106,6 +126,32 @@ def apply_skf_raw(
             src = operator.forward["src"]
             result = stc_to_zarr(rec, src, out, tmin, tstep, pick_ori, overwrite=overwrite)
     return (result, rec) if return_reconstruction else result
+
+
+def _select(operator, info, data, times):
+    """The operator's channels of ``data`` (n_channels, n_times), checked on the samples
+    outside bad segments; the samples inside them (NaN in every channel) stay NaN."""
+    missing = np.isnan(data).all(axis=0)
+    if not missing.any():
+        return operator.select(info, data, "raw")
+    if missing.all():
+        raise InputError(
+            "every sample from start to stop lies in a bad segment (BAD_ annotations): "
+            "nothing to reconstruct; give reject_by_annotation=False to use them"
+        )
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], missing.view(np.int8), [0]])))
+    segments = [(times[a], times[b - 1]) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    logger.info(
+        "    %d bad segment(s) (BAD_ annotations) skipped as missing observations, %d of %d "
+        "samples, no estimate there: %s",
+        len(segments),
+        np.count_nonzero(missing),
+        len(missing),
+        ", ".join(f"{a:.3f}-{b:.3f} s" for a, b in segments),
+    )
+    picked = np.full((len(operator.ch_names), len(missing)), np.nan)
+    picked[:, ~missing] = operator.select(info, data[:, ~missing], "raw")
+    return picked
 
 
 def _raw_picks(info, operator):

@@ -10,21 +10,20 @@ MNE's ``apply_inverse`` names it:
   ``VectorSourceEstimate`` / ``VolVectorSourceEstimate`` / ``MixedVectorSourceEstimate``.
 """
 
-import warnings
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from .._utils.checks import InputError, check_choice, check_real
 from .._utils.extras import optional
-from .._utils.log import caller_stacklevel
 
-__all__ = ["PICK_ORIS", "StcLayout", "make_stc", "stc_layout"]
+__all__ = ["PICK_ORIS", "STC_CLASSES", "StcLayout", "make_stc", "stc_layout"]
 
 #: What a source estimate can show, in MNE's words (``pick_ori`` of ``apply_inverse``).
 PICK_ORIS = (None, "vector")
-#: The 0.2 spelling (``kind=``) of each, kept for one release.
-_KINDS = {"amplitude": None, "z": None, "vector": "vector"}
 
 _CLASSES = {
     ("surface", False): "SourceEstimate",
@@ -34,9 +33,20 @@ _CLASSES = {
     ("mixed", False): "MixedSourceEstimate",
     ("mixed", True): "MixedVectorSourceEstimate",
 }
+#: The names of MNE's source estimate classes a reconstruction can become.
+STC_CLASSES = tuple(_CLASSES.values())
 
 
-def make_stc(reconstruction, src, tmin, tstep, subject=None, pick_ori=None, *, kind=None):
+def make_stc(
+    reconstruction: Any,
+    src: Any,
+    tmin: float,
+    tstep: float,
+    subject: str | None = None,
+    pick_ori: str | None = None,
+    *,
+    layout: StcLayout | None = None,
+) -> Any:
     """An MNE source estimate of a reconstruction on the source space it was computed on.
 
     Parameters
@@ -54,9 +64,9 @@ def make_stc(reconstruction, src, tmin, tstep, subject=None, pick_ori=None, *, k
         Default: the source space's subject.
     pick_ori : {None, "vector"}
         See the module docstring.
-    kind : {"amplitude", "vector", "z"}
-        The 0.2 name of ``pick_ori`` (``"amplitude"`` and ``"z"`` are ``None``); it warns
-        and goes in 0.4.
+    layout : StcLayout, optional
+        :func:`stc_layout`'s answer for ``src`` and ``pick_ori``, when many estimates
+        share it (a prepared operator keeps it).
 
     Returns
     -------
@@ -65,17 +75,9 @@ def make_stc(reconstruction, src, tmin, tstep, subject=None, pick_ori=None, *, k
     """
     mne = optional("mne", "mne", "make_stc")
 
-    if kind is not None:
-        check_choice("kind", kind, tuple(_KINDS))
-        warnings.warn(
-            f"make_stc's kind= is now pick_ori= (MNE's name): kind={kind!r} is "
-            f"pick_ori={_KINDS[kind]!r}; kind goes in 0.4",
-            FutureWarning,
-            stacklevel=caller_stacklevel(),
-        )
-        pick_ori = _KINDS[kind]
     tmin, tstep = check_real("tmin", tmin), check_real("tstep", tstep, positive=True)
-    layout = stc_layout(reconstruction.n_sources, src, pick_ori)
+    if layout is None:
+        layout = stc_layout(reconstruction.n_sources, src, pick_ori)
     n_positions = len(layout.vertices_flat)
     if pick_ori == "vector":
         data = reconstruction.z.reshape(n_positions, 3, -1)
@@ -105,18 +107,18 @@ class StcLayout:
         The source space's subject.
     """
 
-    vertices: list
+    vertices: list[np.ndarray]
     components: int
     class_name: str
-    subject: object
+    subject: str | None
 
     @property
-    def vertices_flat(self):
+    def vertices_flat(self) -> np.ndarray:
         """ndarray : Every position's vertex number, source spaces one after the other."""
         return np.concatenate(self.vertices)
 
 
-def stc_layout(n_sources, src, pick_ori=None):
+def stc_layout(n_sources: int, src: Any, pick_ori: str | None = None) -> StcLayout:
     """The layout of a source estimate of ``n_sources`` rows on ``src``, or a clear error.
 
     Parameters

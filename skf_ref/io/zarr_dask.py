@@ -1,7 +1,7 @@
 """Outputs beyond memory: streamed to a zarr store, or computed by a Dask cluster.
 
 Every row of every spectral output depends on that row of ``V`` and on r x T quantities only
-(:mod:`skf_ref.method.paths.spectral_rows`), so an output never has to exist whole: :func:`to_zarr`
+(the reconstruction's ``lazy_outputs``), so an output never has to exist whole: :func:`to_zarr`
 writes it block of rows by block, :func:`to_dask` hands the blocks to Dask. Outputs of the other
 paths, held in memory already, are cut into the same blocks. zarr and Dask are optional: ``pip
 install "skf_ref[zarr]"`` or ``"skf_ref[dask]"``.
@@ -34,14 +34,15 @@ from .._utils.checks import (
     describe,
 )
 from .._utils.extras import optional
-from ..method.paths.spectral_rows import NAMES
-from ..method.result import Reconstruction, amplitude_from_components
+from ..method import Reconstruction, amplitude_from_components
+from ..method._outputs import ARRAYS as NAMES
 from .stc import stc_layout
 
 __all__ = [
     "BLOCK_BYTES",
     "STORE_MARK",
     "STORE_SUFFIX",
+    "TIME_CHUNK_BYTES",
     "WRITE_BEHIND_BYTES",
     "check_new_store",
     "new_store",
@@ -56,6 +57,9 @@ BLOCK_BYTES = 64 * 2**20
 #: Blocks computed but not yet written to disk (:func:`to_zarr` writes on a thread of its
 #: own while the next blocks are computed): at most this many bytes.
 WRITE_BEHIND_BYTES = 128 * 2**20
+#: Bytes of one chunk of a source estimate's store (:func:`stc_to_zarr`): a shard per
+#: block of rows, cut in time, so that a span of time reads about this much per block.
+TIME_CHUNK_BYTES = 2**20
 #: The attribute that marks a store as written by this package: ``"writing"`` until every
 #: array is whole, then ``"complete"``. Only a store so marked is ever replaced.
 STORE_MARK = "skf_ref_store"
@@ -265,9 +269,9 @@ def to_zarr(
     """Write outputs to a zarr store (a folder), one block of rows at a time.
 
     No output is held whole: memory is the r x T quantities, the block being computed and
-    at most :data:`WRITE_BEHIND_BYTES` of blocks waiting for the disk. The store is
+    at most ``WRITE_BEHIND_BYTES`` (128 MiB) of blocks waiting for the disk. The store is
     written under a temporary name beside ``path`` and renamed when complete
-    (:func:`new_store`), so an interruption leaves no half-written store.
+    (``new_store``), so an interruption leaves no half-written store.
 
     Parameters
     ----------
@@ -332,8 +336,10 @@ def stc_to_zarr(
     -------
     zarr.Group
         Open for reading: the array ``"data"`` (n_positions, n_times), or (n_positions,
-        3, n_times) for ``"vector"``; attributes ``vertices`` (one list per source space),
-        ``tmin``, ``tstep``, ``subject``, ``stc_class`` (MNE's class) and the settings.
+        3, n_times) for ``"vector"``, one shard per block of rows in chunks of about
+        :data:`TIME_CHUNK_BYTES` along time; attributes ``vertices`` (one list per source
+        space), ``tmin``, ``tstep``, ``subject``, ``stc_class`` (MNE's class) and the
+        settings. :func:`skf_ref.read_skf_stream` reads it back as a source estimate.
     """
     zarr = optional("zarr", "zarr", "stc_to_zarr")
     _check_reconstruction(reconstruction, path)
@@ -362,9 +368,15 @@ def stc_to_zarr(
             else:
                 yield positions, block
 
+    # one shard (one file) per block of rows, cut in time into chunks of about
+    # TIME_CHUNK_BYTES: a span of time is read without reading the rest (read_skf_stream)
+    per_sample = step // k * int(np.prod(shape[1:-1]))  # values of one sample in a shard
+    times = max(1, min(T, TIME_CHUNK_BYTES // (8 * per_sample)))
+    chunks = (step // k, *shape[1:-1], times)
+    shards = (step // k, *shape[1:-1], -(-T // times) * times)
     with new_store(path, overwrite, attributes) as group:
         array = group.create_array(
-            "data", shape=shape, chunks=(step // k, *shape[1:]), dtype="f8", compressors=None
+            "data", shape=shape, chunks=chunks, shards=shards, dtype="f8", compressors=None
         )
         _write_behind(rows(reconstruction.blocks("z", rows=step)), array.__setitem__)
     return zarr.open_group(path, mode="r")
@@ -415,19 +427,18 @@ def to_dask(reconstruction: Reconstruction, name: str = "z", chunks: int | None 
 
     check_choice("name", name, NAMES)
     step = _rows_per_block(reconstruction, chunks)
-    rows = reconstruction.spectral_rows
-    if rows is None or reconstruction.computed(name):
+    outputs = reconstruction.lazy_outputs
+    if outputs is None or reconstruction.computed(name):
         return da.from_array(getattr(reconstruction, name), chunks=(step, -1))
     n, T = reconstruction.n_sources, reconstruction.n_times
     slices = [slice(start, min(start + step, n)) for start in range(0, n, step)]
-    state = dask.delayed(rows, name=f"skf-rows-{dask.base.tokenize(id(rows), n, T)}")
-    delta = None
-    if name == "z" and rows.smoother == "rts-standardized":
-        shares = [dask.delayed(_projection)(state, where) for where in slices]
-        delta = dask.delayed(_correction)(state, shares)
+    state = dask.delayed(outputs, name=f"skf-rows-{dask.base.tokenize(id(outputs), n, T)}")
+    # what every block needs of the others (the paper's smoother's correction), as tasks
+    shares = [dask.delayed(_share)(state, name, where) for where in slices]
+    shared = dask.delayed(_combine)(state, name, shares)
     blocks = [
         da.from_delayed(
-            dask.delayed(_block)(state, name, where, delta),
+            dask.delayed(_block)(state, name, where, shared),
             shape=(where.stop - where.start, T),
             dtype=float,
         )
@@ -436,13 +447,13 @@ def to_dask(reconstruction: Reconstruction, name: str = "z", chunks: int | None 
     return da.concatenate(blocks, axis=0)
 
 
-def _projection(rows, where):
-    return rows.projection(where)
+def _share(outputs, name, where):
+    return outputs.share(name, where)
 
 
-def _correction(rows, shares):
-    return rows.correction_from(np.sum(shares, axis=0))
+def _combine(outputs, name, shares):
+    return outputs.combine(name, shares)
 
 
-def _block(rows, name, where, delta):
-    return np.ascontiguousarray(rows.block(name, where, delta=delta).T)
+def _block(outputs, name, where, shared):
+    return outputs.block(name, where, shared)

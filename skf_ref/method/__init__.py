@@ -1,16 +1,46 @@
 """The method: the SKF's model, priors, paths and result, in numpy, scipy and filterpy.
 
-- :mod:`.model`: the state-space model and its checks (docs/model.md §1);
-- :mod:`.priors`: PM-SNR and EP-SNR to ``theta0`` and ``q`` (§4); :mod:`.tuning` and
-  :mod:`.discrepancy`: priors chosen by the data;
-- :mod:`.standardization`: the standardization weights, the one home of eq. (7);
-- :mod:`.paths`: the three computational paths (the dense statement of the algorithm, the
-  filterpy subclass, the exact spectral path);
-- :mod:`.reconstruct`: the entry point that checks once and picks a path;
-- :mod:`.result`: the result type every path returns;
-- :mod:`.settings`: the recommended setting and the paper's.
+The names below are the method's public API; the top level (``import skf_ref``) exports
+the ones most scripts need. Its modules (leading underscore) are the implementation:
+
+- ``_model``: the state-space model and its checks (docs/model.md §1);
+- ``_priors``: PM-SNR and EP-SNR to ``theta0`` and ``q`` (§4); ``_tuning`` and
+  ``_discrepancy``: priors chosen by the data;
+- ``_standardization``: the standardization weights, the one home of eq. (7);
+- ``_paths``: the three computational paths: ``dense`` (the readable statement of the
+  algorithm, one equation a line), ``filterpy_skf`` (a subclass of filterpy's
+  ``KalmanFilter``) and ``spectral`` (exact and fast for isotropic priors, with
+  ``singular_basis``, ``recursions``, ``weights``, ``tiles`` and ``spectral_rows``);
+  docs/model.md §9 says why they agree;
+- ``_settings``: the recommended setting and the paper's, and the one check of a run's
+  settings; ``_reconstruct``: the entry point that checks once and picks a path;
+- ``_result``: the result type every path returns; ``_outputs``: the names of its outputs
+  and what computes them on demand.
 
 It imports nothing from the layers above it (MNE objects and files, the cross-check tools,
-the study, the command line), except :class:`~.result.Reconstruction`'s conveniences
-``to_stc``, ``to_zarr`` and ``to_dask``, which load :mod:`skf_ref.io` when called.
+the study, the command line). Names load on first use.
 """
+
+from .._utils.lazy import attach
+
+#: Public name -> the module that defines it.
+_HOMES = {
+    "PAPER_SETTING": "_settings",
+    "RECOMMENDED_SETTING": "_settings",
+    "Reconstruction": "_result",
+    "SpectralBasis": "_paths.singular_basis",
+    "SpectralModel": "_paths.spectral",
+    "StandardizedKalmanFilter": "_paths.filterpy_skf",
+    "StateSpaceModel": "_model",
+    "TuneResult": "_tuning",
+    "amplitude_from_components": "_result",
+    "evolution_variance": "_priors",
+    "lead_field_amplitude": "_priors",
+    "prior_variance": "_priors",
+    "priors_from_snr": "_priors",
+    "reconstruct": "_reconstruct",
+    "tune": "_tuning",
+}
+
+__all__ = sorted(_HOMES)
+__getattr__, __dir__ = attach(__name__, _HOMES)

@@ -10,5 +10,8 @@
 
 The study imports the method and needs MNE-Python, nibabel, joblib, tqdm and filelock (the
 ``study`` extra: its head models and its sweeps say so when one is missing); nothing below it
-imports the study.
+imports the study. Each module above is a public namespace with its own ``__all__`` (in
+``plots``, the package's; its modules are the implementation); ``sizes`` is internal.
 """
+
+__all__: list[str] = []

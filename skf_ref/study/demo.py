@@ -27,8 +27,8 @@ import numpy as np
 from .._utils.atomic_files import atomic_path
 from .._utils.checks import InputError, check_choice, check_int
 from .._utils.log import logger, progress, verbosity
-from ..method.reconstruct import check_smoother
-from ..method.settings import PAPER_SETTING
+from ..method import PAPER_SETTING
+from ..method._settings import check_smoother
 from .sizes import DEFAULT_POSITIONS
 
 __all__ = ["DATA", "HEADS", "OUTPUTS", "Demo", "run_demo"]
@@ -229,7 +229,7 @@ def _label(setting):
 
 
 def _priors(head, sim, pm_snr_db, ep_snr_db):
-    from ..method.tuning import choose_priors
+    from ..method._tuning import choose_priors
 
     theta0, q, tuning = choose_priors(
         head.leadfield, sim.Y, noise_std=sim.sigma, pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db
@@ -245,7 +245,7 @@ def _priors(head, sim, pm_snr_db, ep_snr_db):
 
 
 def _skf(head, sims, priors, settings):
-    from ..method.reconstruct import reconstruct
+    from ..method import reconstruct
 
     theta0, q = priors
     out = {}

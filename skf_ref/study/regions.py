@@ -2,7 +2,7 @@
 
 ``amplitude`` is a position amplitude ``a_t(p)``, shape (n_positions, n_times): the
 Euclidean norm of a position's standardized components
-(:func:`skf_ref.method.result.amplitude_from_components`). ``positions`` are grid positions, shape
+(:func:`skf_ref.method.amplitude_from_components`). ``positions`` are grid positions, shape
 (n_positions, 3), and true positions shape (3,), both in metres. The region of a source is the
 set of grid positions within ``radius_mm`` (15 mm) of its exact position (docs/model.md §6).
 """
@@ -91,7 +91,7 @@ def as_amplitude(reconstruction, n_positions):
         raise InputError(
             f"reconstruction amplitude must have shape (n_positions, n_times) with "
             f"n_positions={n_positions}, got shape {amp.shape} (pass an amplitude, not the "
-            f"standardized components; see skf_ref.method.result.amplitude_from_components)"
+            f"standardized components; see skf_ref.method.amplitude_from_components)"
         )
     return amp
 

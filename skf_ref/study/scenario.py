@@ -31,7 +31,7 @@ from .._utils.checks import (
     check_real,
     check_vector,
 )
-from ..method.result import readonly
+from ..method._result import readonly
 from .head import HeadModel, make_head_model  # noqa: F401  (make_head_model: issue-4 name)
 from .regions import REGION_RADIUS_MM, region_mask
 

@@ -201,9 +201,7 @@ class _Timer:
 def _skf(head, sims, noise):
     """The SKF settings' amplitudes: (method, setting, data, seed) -> (amplitude, run s),
     and the preparation's seconds."""
-    from skf_ref.method.model import StateSpaceModel
-    from skf_ref.method.paths.spectral import SpectralModel
-    from skf_ref.method.priors import priors_from_snr
+    from skf_ref.method import SpectralModel, StateSpaceModel, priors_from_snr
 
     first = next(iter(sims.values()))
     with _Timer() as prep:

@@ -40,9 +40,7 @@ class CheckedRuns:
         self.models, self.sims, self.truth = {}, {}, None
 
     def _model(self, snr, ep, pm, sim):
-        from skf_ref.method.model import StateSpaceModel
-        from skf_ref.method.paths.spectral import SpectralModel
-        from skf_ref.method.priors import priors_from_snr
+        from skf_ref.method import SpectralModel, StateSpaceModel, priors_from_snr
 
         if (snr, ep, pm) not in self.models:
             L, T = self.head.leadfield, sim.Y.shape[1]

@@ -61,10 +61,10 @@ RANKED_EXPONENTS = (1.0, 1.25, 1.5)
 #: Smoother labels of the paper grid, as in the sweep table ("none": no smoothing).
 SMOOTHERS = ("none", "rts-standardized", "rts-state")
 FINE_RANGE = (-20.0, 40.0)
-#: Values per SNR of the coarse grid :func:`skf_ref.method.tuning` searches for the tuned priors
+#: Values per SNR of the coarse grid :func:`skf_ref.tune` searches for the tuned priors
 #: (over FINE_RANGE, the fine map's span).
 TUNE_GRID = 13
-#: The criteria of :func:`skf_ref.method.tuning` the tuned priors are chosen by, each on its own.
+#: The criteria of :func:`skf_ref.tune` the tuned priors are chosen by, each on its own.
 TUNE_CRITERIA = ("likelihood", "discrepancy")
 #: Mean scores closer than this (mm) are tied: peak errors are grid distances, so exact ties
 #: between cells are common; the tolerance only absorbs rounding of the means.

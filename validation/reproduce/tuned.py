@@ -1,6 +1,6 @@
 """Priors chosen by the data: two criteria against the ground truth's best cell and the paper's.
 
-For every seed and noise level, :func:`skf_ref.method.tuning` picks EP-SNR and PM-SNR from that
+For every seed and noise level, :func:`skf_ref.tune` picks EP-SNR and PM-SNR from that
 seed's data alone (the search range of the fine map, -20 .. 40 dB, its default), by each of
 its criteria: the marginal likelihood, and the discrepancy principle (EP-SNR where the
 whitened residual of the filtered means equals its expected value ``n_channels * n_times``,
@@ -127,7 +127,7 @@ def paper_cells(snr, stage):
 
 def _choose(L, sim, criterion):
     """``tune`` by one criterion, its bound warnings caught and counted, not printed."""
-    from skf_ref.method.tuning import tune
+    from skf_ref import tune
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)  # count repeats from the same line

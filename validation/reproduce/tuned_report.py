@@ -133,7 +133,7 @@ def _intro(totals):
         for c in TUNE_CRITERIA
     )
     return (
-        "For each seed and noise level, `skf_ref.method.tuning` chose EP-SNR and PM-SNR from that "
+        "For each seed and noise level, `skf_ref.tune` chose EP-SNR and PM-SNR from that "
         f"seed's data alone ({TUNE_GRID} x {TUNE_GRID} grid over {lower:g} .. {upper:g} dB, "
         "the fine map's span), knowing the noise level as every other run does, and nothing "
         "of the sources, by each of two criteria (docs/model.md §4): the *marginal "
@@ -159,7 +159,7 @@ def _intro(totals):
 
 
 def _bounds_text(totals):
-    from skf_ref.method.tuning import BOUND_TOL_DB
+    from skf_ref.method._tuning import BOUND_TOL_DB
 
     lower, upper = FINE_RANGE
     counts = "; ".join(

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..._utils.atomic_files import atomic_path
 from ..._utils.checks import InputError, check_choice, check_instance, check_real
-from ...method.result import readonly
+from ...method._result import readonly
 from ._data import SENSOR_FILES, SUBJECT, TESTING_FILES, cache_dir, find_testing_data, input_digest
 from ._model import Anatomy, HeadModel, apply_affine, finish_forward, with_average_reference
 from ._sphere import ANATOMICAL_SPACING_MM, MINDIST_MM, check_montage

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..._utils.checks import InputError, check_array
 from ..._utils.extras import require
-from ...method.result import readonly
+from ...method._result import readonly
 
 require(("mne", "nibabel", "filelock"), "study", "skf_ref's head models")
 

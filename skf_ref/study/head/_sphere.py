@@ -42,7 +42,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..._utils.checks import InputError, check_int, check_real
-from ...method.result import readonly
+from ...method._result import readonly
 from ..sizes import DEFAULT_POSITIONS
 from ._model import Anatomy, HeadModel, apply_affine, finish_forward, sensors
 

@@ -90,7 +90,7 @@ def plot_landscape(result, path=None, title=None):
 
     Parameters
     ----------
-    result : skf_ref.method.tuning.TuneResult
+    result : skf_ref.method.TuneResult
         Its ``landscape`` (the coarse grid) and chosen ``pm_snr_db``, ``ep_snr_db``.
     path : str or path-like, optional
     title : str, optional

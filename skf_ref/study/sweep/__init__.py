@@ -6,7 +6,7 @@ one row to the results file: its parameters, every metric of
 :func:`skf_ref.study.metrics.summarize`, the package versions and the BLAS threads of the worker.
 
 Work is grouped by (snr_db, ep_snr_db, pm_snr_db): these fix the noise level and the priors, so one
-:class:`skf_ref.method.paths.spectral.SpectralModel` (whitening, SVD and the whole covariance
+:class:`skf_ref.method.SpectralModel` (whitening, SVD and the whole covariance
 recursion, which do not depend on the data) serves every seed, exponent and smoother of the group;
 many seeds cost little more than one.
 

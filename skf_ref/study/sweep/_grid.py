@@ -9,7 +9,7 @@ from ..._utils.checks import (
     check_real,
     describe,
 )
-from ...method.reconstruct import SMOOTHERS, check_smoother
+from ...method._settings import SMOOTHERS, check_smoother
 
 __all__ = ["AXES", "GROUP", "KEY", "check_grid", "paper_grid", "row_key", "smoother_label"]
 

@@ -133,9 +133,7 @@ def run_on_head(
     list of dict
         One row per run; ``n_positions`` is the head's own count.
     """
-    from ...method.model import StateSpaceModel
-    from ...method.paths.spectral import SpectralModel
-    from ...method.priors import priors_from_snr
+    from ...method import SpectralModel, StateSpaceModel, priors_from_snr
     from .. import metrics
     from .. import scenario as simulate
 

@@ -8,59 +8,37 @@ or on a cluster (:meth:`SpectralRows.block`). The one exception is the paper's s
 ``"rts-standardized"``: its correction ``V delta`` needs ``zeta = V^T z_{t|t}`` summed over
 all rows, which one pass over the blocks computes first (r x T numbers; kept).
 
-In the steady state (:mod:`skf_ref.method.paths.recursions`, from step ``steady`` on) the
+In the steady state (``skf_ref.method._paths.recursions``, from step ``steady`` on) the
 weights are held: ``W_t^(alpha) = D``, one number a row, and every output is one product,
 ``z_t = (D V) u_t`` with ``u_t = p^{-1/2} xi_t``. There the smoothed ``h_t`` of the paper's
-smoother (module :mod:`skf_ref.method.paths.spectral`) stays in span ``D V``:
+smoother (module ``skf_ref.method._paths.spectral``) stays in span ``D V``:
 ``h_t = D V eta_t`` with ``eta`` the scalar recursion on ``u`` (rank r), so
 ``s_t = [D V, V] [eta_t; delta_t]``, one product, and ``zeta_t = (V^T D V) u_t``: the pass
 over the rows covers the steps before ``steady`` only.
 
 Everything is computed in tiles of about :data:`BLOCK_BYTES` (rows, and steps on long
-recordings) on worker threads (:func:`~.singular_basis.map_threads`), each on one BLAS
+recordings) on worker threads (``skf_ref._utils.threads.map_threads``), each on one BLAS
 thread. A block of rows (:meth:`SpectralRows.block`) is computed source-major, (n_rows,
 n_times) C-ordered, as it is written to disk, and handed out as its (n_times, n_rows)
 transpose; a whole output (:meth:`SpectralRows.array`) is time-major, (n_times, n_sources),
 so that the paper's smoother's scalar recursion runs along contiguous rows.
 """
 
+from collections.abc import Iterator, Sequence
+from typing import Any
+
 import numpy as np
+from numpy.typing import NDArray
 from scipy.linalg import blas
 
 from ..._utils import memory
-from ..outputs import ARRAYS
-from ..standardization import standardization_weights
-from .recursions import backward
-from .singular_basis import map_threads
+from ..._utils.threads import map_threads
+from . import tiles
+from .recursions import Recursions, backward
+from .weights import Standardization
 
-__all__ = [
-    "BLOCK_BYTES",
-    "CACHE_BYTES",
-    "MIN_BLOCK_COLUMNS",
-    "NAMES",
-    "PROJECTION_COLUMNS",
-    "PROJECTION_STEPS",
-    "SMOOTH_BYTES",
-    "SMOOTH_COLUMNS",
-    "SMOOTH_PART_COLUMNS",
-    "SpectralRows",
-    "Standardization",
-    "TIME_MAJOR_COLUMNS",
-]
+__all__ = ["SpectralRows"]
 
-#: The outputs a reconstruction holds.
-NAMES = ARRAYS  # the outputs it computes rows of
-#: One tile of an output, a work item of the worker threads: small enough to stay in
-#: cache between the steps that touch it and for both cores to share even small outputs.
-BLOCK_BYTES = 4 * 2**20
-#: Rows of a tile on long recordings (more than BLOCK_BYTES / (8 MIN_BLOCK_COLUMNS)
-#: steps), which are cut into tiles of steps too: products at least this wide.
-MIN_BLOCK_COLUMNS = 64
-#: Rows of a tile of a time-major output (held in memory): each step of a tile is a
-#: contiguous 32 KiB run, where a source-major tile's row width (BLOCK_BYTES over the
-#: steps, 524 rows at 1000 steps) cuts every step into 4 KiB pieces a page apart; at the
-#: paper's scale z with kept weights takes 0.025 s in place of 0.035 (validation/bench).
-TIME_MAJOR_COLUMNS = 4096
 #: :meth:`skf_ref.Reconstruction.blocks` computes streamed ``"rts-standardized"`` outputs
 #: narrower than SMOOTH_COLUMNS several blocks at a time, up to that width or
 #: SMOOTH_BYTES: the backward pass over the steps before the steady state costs one
@@ -72,151 +50,129 @@ SMOOTH_BYTES = 64 * 2**20
 #: scale, 9501 columns, two parts take 0.016 s where eight took 0.024), and in at most 8,
 #: so that a core another process keeps busy hands its share to the other.
 SMOOTH_PART_COLUMNS = 4096
-#: The "rts-standardized" correction sums zeta over groups of this many rows, in tiles of
-#: this many steps (one work item of the worker threads each): the same bits whatever the
-#: number of threads.
-PROJECTION_COLUMNS = 8192
-PROJECTION_STEPS = 8192
-#: The standardization weights of the steps before the steady state are kept, for every
-#: exponent applied to a second data set, when they take at most this much: a model
-#: applied to many data sets then pays for them once.
-CACHE_BYTES = 256 * 2**20
+
+_Array = NDArray[np.float64]
 
 
-class Standardization:
-    """``W_t^(alpha)`` of one model and exponent, for any rows and steps: no data needed.
+class SpectralRows:
+    """Rows of the outputs of one spectral reconstruction: its
+    ``skf_ref.method._outputs.LazyOutputs``.
 
     Parameters
     ----------
     V : ndarray, shape (n_sources, r)
-    omega : ndarray, shape (n_stored, r)
-        ``s^2 p_{t|t-1} / (s^2 p_{t|t-1} + 1)`` (:class:`~.recursions.Recursions`): the
-        raw weights are ``(V o V) omega_t``; the last row holds from step ``steady`` on.
-    steady : int
-        First step of the steady state (``n_times``: none).
-    n_times : int
-    exponent : float
-    """
-
-    def __init__(self, V, omega, steady, n_times, exponent):
-        self.V, self.omega, self.exponent = V, omega, exponent
-        self.steady, self.n_times = steady, n_times
-        self._scale = self._cache = self._projector = None
-        self.applications = 0  # data sets this standardization served (SpectralRows)
-
-    @property
-    def held(self):
-        """bool : Whether the recording reaches the steady state."""
-        return self.steady < self.n_times
-
-    @property
-    def kept(self):
-        """bool : Whether the weights of the steps before ``steady`` are kept
-        (:data:`CACHE_BYTES`)."""
-        return self._cache is not None
-
-    def prepare(self):
-        """Compute what the tiles share, in the calling thread (the workers only read it)."""
-        if self.held and self._scale is None:
-            # W^(alpha) = Diag((V o V) omega)^(-alpha), one number a row  §2.2 (7)
-            raw = np.empty(len(self.V))
-            for rows in _slices(0, len(self.V), PROJECTION_COLUMNS):
-                np.matmul(np.square(self.V[rows]), self.omega[-1], out=raw[rows])
-            self._scale = standardization_weights(raw, self.exponent, out=raw)
-        n, S = len(self.V), self.steady
-        if self._cache is None and self.applications > 1 and 0 < 8 * n * S <= CACHE_BYTES:
-            cache = np.empty((S, n))  # time-major, as the outputs held in memory
-
-            def fill(item):  # in the tiles of a time-major output: the same products
-                rows, times = item
-                self.transient(rows, times, cache[times, rows].T)
-
-            for _ in map_threads(fill, _tiles(0, n, S, cache.T)):
-                pass
-            self._cache = cache
-
-    def transient(self, rows, times, out=None):
-        """The weights of ``rows`` at ``times`` (steps before ``steady``): (n_rows, n_steps).
-
-        Parameters
-        ----------
-        rows, times : slice
-        out : ndarray, shape (n_rows, n_steps), optional
-            Where to write them (default a new array).
-
-        Returns
-        -------
-        ndarray
-            A view of the kept weights, or ``out`` filled.
-        """
-        if self._cache is not None:
-            return self._cache[times, rows].T
-        # w_t = (V o V) omega_t                                          §2.2 (7)
-        w = np.matmul(np.square(self.V[rows]), self.omega[times].T, out=out)
-        return standardization_weights(w, self.exponent, out=w)
-
-    def scale(self, rows):
-        """The held weights of ``rows``, (n_rows, 1): ``W^(alpha)`` from ``steady`` on."""
-        return self._scale[rows, None]
-
-    def raw(self, rows, times):
-        """Raw weights ``w_t`` of ``rows`` at any steps, (n_rows, n_steps), for a diagnosis."""
-        first, stop, _ = times.indices(self.n_times)
-        index = np.minimum(np.arange(first, stop), len(self.omega) - 1)
-        return (self.V[rows] ** 2) @ self.omega[index].T
-
-    def projector(self):
-        """``V^T D V`` (r, r): ``zeta_t = V^T z_t`` from ``u_t`` in the steady state."""
-        if self._projector is None:
-            self.prepare()
-            self._projector = (self.V * self._scale[:, None]).T @ self.V
-        return self._projector
-
-
-class SpectralRows:
-    """Rows of the outputs of one spectral reconstruction.
-
-    Parameters
-    ----------
-    model : SpectralModel
-        The data-free part (:class:`skf_ref.method.paths.spectral.SpectralModel`): ``V``,
-        its recursions and standardizations.
+        The right singular vectors of the whitened lead field.
+    a : float
+        ``A = a I``.
+    recursions : Recursions
+        The covariance recursion of the data's steps (``skf_ref.method._paths.recursions``).
+    standardization : Standardization
+        Its weights at the exponent asked for.
     xi : ndarray, shape (n_times, r)
         Filtered singular coordinates ``V^T x_{t|t}``.
-    exponent : float
     smoother : {None, "rts-standardized", "rts-state"}
     memory_limit : float, optional
         Bytes a whole output (:meth:`array`) may take; default half the memory available.
     """
 
-    def __init__(self, model, xi, exponent, smoother, memory_limit=None):
-        recursions = model.recursions
-        self.V, self.a, self.xi = model.V, model.a, xi
+    def __init__(
+        self,
+        V: NDArray[np.float64],
+        a: float,
+        recursions: Recursions,
+        standardization: Standardization,
+        xi: NDArray[np.float64],
+        smoother: str | None,
+        memory_limit: float | None = None,
+    ) -> None:
+        self.V, self.a, self.xi = V, a, xi
         self.n_sources, self.n_times = self.V.shape[0], len(xi)
         self.steady = recursions.steady
-        self.exponent, self.smoother, self.memory_limit = exponent, smoother, memory_limit
-        self.standardization = model.standardization(exponent)
+        self.exponent = standardization.exponent
+        self.smoother, self.memory_limit = smoother, memory_limit
+        self.standardization = standardization
         self.standardization.applications += 1
         self.recursions = recursions
         # P_{t|t-1}^{-1/2} x = V diag(p^{-1/2}) xi                      §2.2 (6)
         self.u = self._whitened(xi)
-        self.xi_smoothed = self.u_smoothed = None
+        self.xi_smoothed: Any = None
+        self.u_smoothed: Any = None
         if smoother == "rts-state":
             self.xi_smoothed = recursions.smooth_state(xi)
             self.u_smoothed = self._whitened(self.xi_smoothed)
-        self._delta = None
+        self._delta: Any = None
 
-    def _whitened(self, xi):
+    # --- the LazyOutputs protocol -----------------------------------------------------------
+
+    def array(self, name: str) -> NDArray[np.float64]:
+        """Output ``name`` whole, (n_sources, n_times): the transpose of a time-major array
+        (:meth:`time_major`)."""
+        return self.time_major(name).T
+
+    def blocks(
+        self, name: str, rows: int | None = None
+    ) -> Iterator[tuple[slice, NDArray[np.float64]]]:
+        """Output ``name`` block of ``rows`` rows by block (default about
+        ``BLOCK_BYTES`` each), (n_rows, n_times) C-ordered.
+
+        The paper's smoother's backward pass costs a vector operation a step per block
+        computed, so on long recordings narrow blocks are computed several at a time (up to
+        :data:`SMOOTH_COLUMNS` rows or :data:`SMOOTH_BYTES`): one group in memory at once.
+        """
+        n, T = self.n_sources, self.n_times
+        step = tiles.row_count(T) if rows is None else rows
+        width = min(SMOOTH_COLUMNS, SMOOTH_BYTES // (8 * T))
+        smoothed = name == "z" and self.smoother == "rts-standardized"
+        group = step * max(1, width // step) if smoothed else step
+        for first in range(0, n, group):
+            stop = min(first + group, n)
+            many = self.block(name, slice(first, stop))
+            for start in range(first, stop, step):
+                where = slice(start, min(start + step, stop))
+                yield where, many[where.start - first : where.stop - first]
+            del many  # before the next group is computed
+
+    def share(self, name: str, rows: slice) -> _Array | None:
+        """These rows' share of what every block of ``name`` needs: of ``zeta = V^T
+        z_{t|t}`` for the paper's smoothed ``z`` (:meth:`projection`), else None."""
+        return self.projection(rows) if self._needs_correction(name) else None
+
+    def combine(self, name: str, shares: Sequence[Any]) -> _Array | None:
+        """The correction of the paper's smoother from every block's share (else None)."""
+        if not self._needs_correction(name):
+            return None
+        return self.correction_from(np.sum(shares, axis=0))
+
+    def block(self, name: str, rows: slice, shared: Any = None) -> _Array:
+        """Rows ``rows`` of output ``name``, (n_rows, n_times) C-ordered; ``shared`` is
+        :meth:`combine`'s result (computed here, by a pass over every row, when None)."""
+        return self._fill_block(name, rows, delta=shared).T
+
+    def min_raw_weight(self) -> float:
+        """The smallest raw weight over every source and observed step (only to explain a
+        failure)."""
+        steps = slice(0, min(self.steady + 1, self.n_times))
+        return min(
+            float(np.nanmin(self.standardization.raw(rows, steps)))
+            for rows in tiles.slices(0, self.n_sources, tiles.row_count(steps.stop))
+        )
+
+    def _needs_correction(self, name: str) -> bool:
+        return name == "z" and self.smoother == "rts-standardized"
+
+    def _whitened(self, xi: _Array) -> _Array:
         root = np.sqrt(self.recursions.p_pred)
         own = len(root) - self.recursions.held
         return np.concatenate([xi[:own] / root[:own], xi[own:] / root[-1]])
 
     # --- one block of rows ------------------------------------------------------------------
 
-    def block(self, name, columns, out=None, delta=None):
+    def _fill_block(
+        self, name: str, columns: slice, out: _Array | None = None, delta: _Array | None = None
+    ) -> _Array:
         """Rows ``columns`` of output ``name``, as a (n_times, n_rows) array.
 
-        Computed in tiles on worker threads (:func:`~.singular_basis.map_threads`).
+        Computed in tiles on worker threads (``skf_ref._utils.threads.map_threads``).
 
         Parameters
         ----------
@@ -243,25 +199,25 @@ class SpectralRows:
             self._fill(name, first, stop, target)
         return target.T
 
-    def _fill(self, name, first, stop, target):
+    def _fill(self, name: str, first: int, stop: int, target: _Array) -> None:
         """Output ``name`` (not the paper's smoothed z) of rows first:stop into ``target``."""
         if name in ("z", "z_filtered", "weights"):
             self.standardization.prepare()
 
-        def tile(item):
+        def tile(item: tuple[slice, slice]) -> None:
             rows, times = item
             self._tile(name, rows, times, target[rows.start - first : rows.stop - first, times])
 
-        for _ in map_threads(tile, _tiles(first, stop, self.n_times, target)):
+        for _ in map_threads(tile, tiles.tiles(first, stop, self.n_times, target)):
             pass
 
-    def _tile(self, name, rows, times, out):
+    def _tile(self, name: str, rows: slice, times: slice, out: _Array) -> _Array:
         """Output ``name`` of ``rows`` at ``times`` into ``out`` (n_rows, n_steps)."""
         if name == "x_filtered" or (name == "x" and self.smoother != "rts-state"):
             return np.matmul(self.V[rows], self.xi[times].T, out=out)
         if name == "x":
             return np.matmul(self.V[rows], self.xi_smoothed[times].T, out=out)
-        transient, held = _split(times, self.steady)
+        transient, held = tiles.split(times, self.steady)
         if name == "weights":
             if transient:
                 part = out[:, : transient.stop - transient.start]
@@ -274,9 +230,9 @@ class SpectralRows:
         smoothed = name == "z" and self.smoother == "rts-state"
         return self._standardized(self.u_smoothed if smoothed else self.u, rows, times, out)
 
-    def _standardized(self, u, rows, times, out):
+    def _standardized(self, u: _Array, rows: slice, times: slice, out: _Array) -> _Array:
         """``z_t = W_t^(alpha) V u_t`` of ``rows`` at ``times`` into ``out``.  §2.2 (6)-(7)"""
-        transient, held = _split(times, self.steady)
+        transient, held = tiles.split(times, self.steady)
         V = self.V[rows]
         if transient:
             part = out[:, : transient.stop - transient.start]
@@ -289,11 +245,11 @@ class SpectralRows:
 
     # --- the paper's smoother ---------------------------------------------------------------
 
-    def _transient(self, rows, out):
+    def _transient(self, rows: slice, out: _Array) -> _Array:
         """z_{t|t} of ``rows`` before ``steady`` into ``out`` (n_rows, n_times)."""
         return self._standardized(self.u, rows, slice(0, self.steady), out[:, : self.steady])
 
-    def _smooth_transient(self, time_major, columns, eta):
+    def _smooth_transient(self, time_major: _Array, columns: slice, eta: Any) -> None:
         """The smoothed ``h`` before ``steady`` of ``columns``, in place of their z_{t|t} in
         ``time_major`` (n_times, n_rows): the scalar recursion from
         ``h_steady = D V eta_0`` (or from ``z_T`` if the recording ends before ``steady``).
@@ -310,10 +266,10 @@ class SpectralRows:
             np.multiply(self.V[columns] @ eta[0], scale, out=h[S])
         backward(h, beta[: len(h) - 1], self.a, overwrite=True)
 
-    def _corrected(self, rows, times, out, correction):
+    def _corrected(self, rows: slice, times: slice, out: _Array, correction: _Array) -> _Array:
         """``s = h + V delta`` of ``rows`` at ``times``: ``out`` holds ``h`` before steady;
         from ``steady`` on ``s_t = [D V, V] [eta_t; delta_t]``, one product."""
-        transient, held = _split(times, self.steady)
+        transient, held = tiles.split(times, self.steady)
         V = self.V[rows]
         r = V.shape[1]
         if transient:
@@ -324,34 +280,34 @@ class SpectralRows:
             np.matmul(stacked, correction[held].T, out=out[:, held.start - times.start :])
         return out
 
-    def _fill_smoothed(self, first, stop, target, correction):
+    def _fill_smoothed(self, first: int, stop: int, target: _Array, correction: _Array) -> None:
         """The paper's smoothed z of rows first:stop into ``target`` (n_rows, n_times)."""
         S = self.steady
         eta = correction[S:, : self.V.shape[1]]
 
-        def rows_of(rows):
+        def rows_of(rows: slice) -> None:
             where = target[rows.start - first : rows.stop - first]
             self._transient(rows, where)
             if S:
                 self._smooth_transient(where.T, rows, eta)
 
-        for _ in map_threads(rows_of, _row_blocks(first, stop, S + 1)):
+        for _ in map_threads(rows_of, tiles.row_blocks(first, stop, S + 1)):
             pass
         self._correct(first, stop, target, correction)
 
-    def _correct(self, first, stop, target, correction):
+    def _correct(self, first: int, stop: int, target: _Array, correction: _Array) -> None:
         """``s = h + V delta`` of rows first:stop into ``target`` (n_rows, n_times), which
         holds ``h`` before the steady state (:meth:`_corrected`), tile by tile."""
 
-        def tile(item):
+        def tile(item: tuple[slice, slice]) -> None:
             rows, times = item
             where = target[rows.start - first : rows.stop - first, times]
             self._corrected(rows, times, where, correction)
 
-        for _ in map_threads(tile, _tiles(first, stop, self.n_times, target)):
+        for _ in map_threads(tile, tiles.tiles(first, stop, self.n_times, target)):
             pass
 
-    def projection(self, columns, times=None):
+    def projection(self, columns: slice, times: slice | None = None) -> _Array:
         """These rows' share of ``zeta = V^T z_{t|t}`` at steps ``times``: (n_steps, r).
 
         ``times`` defaults to the steps before the steady state, the only ones
@@ -361,13 +317,13 @@ class SpectralRows:
         first, stop, _ = (slice(0, self.steady) if times is None else times).indices(self.n_times)
         self.standardization.prepare()
         share = np.zeros((stop - first, self.V.shape[1]))
-        for steps, rows in _tiles_by_steps(*columns.indices(self.n_sources)[:2], first, stop):
+        for steps, rows in tiles.tiles_by_steps(*columns.indices(self.n_sources)[:2], first, stop):
             shape = (rows.stop - rows.start, steps.stop - steps.start)
             z = self._standardized(self.u, rows, steps, np.empty(shape))
             share[steps.start - first : steps.stop - first] += z.T @ self.V[rows]
         return share
 
-    def correction(self):
+    def correction(self) -> _Array:
         """The "rts-standardized" correction (:meth:`correction_from`), by one pass over
         every row; computed once, then kept.
 
@@ -381,8 +337,8 @@ class SpectralRows:
             zeta = np.zeros((S, self.V.shape[1]))
             items = [
                 (rows, steps)
-                for steps in _slices(0, S, PROJECTION_STEPS)
-                for rows in _slices(0, self.n_sources, PROJECTION_COLUMNS)
+                for steps in tiles.slices(0, S, tiles.PROJECTION_STEPS)
+                for rows in tiles.slices(0, self.n_sources, tiles.PROJECTION_COLUMNS)
             ]
             shares = map_threads(lambda item: self.projection(*item), items)
             for (_, steps), share in zip(items, shares, strict=True):
@@ -390,7 +346,7 @@ class SpectralRows:
             self._delta = self.correction_from(zeta)
         return self._delta
 
-    def correction_from(self, zeta, eta=None):
+    def correction_from(self, zeta: _Array, eta: _Array | None = None) -> _Array:
         """The correction from ``zeta = V^T z_{t|t}`` before the steady state.
 
         Parameters
@@ -417,7 +373,7 @@ class SpectralRows:
             correction[S:, :r] = self._steady_means() if eta is None else eta
         return correction
 
-    def _steady_means(self):
+    def _steady_means(self) -> _Array:
         """eta (T - steady, r): ``h_t = D V eta_t`` from ``steady`` on (h's scalar recursion
         on ``u``, which stays in span ``D V`` there)."""
         _, beta = self.recursions.gains
@@ -425,7 +381,7 @@ class SpectralRows:
 
     # --- a whole output in memory -------------------------------------------------------
 
-    def array(self, name):
+    def time_major(self, name: str) -> NDArray[np.float64]:
         """Output ``name`` whole, (n_times, n_sources), filled tile by tile in threads.
 
         ``"z"`` of ``"rts-standardized"`` is filled with ``z_{t|t}`` before the steady state
@@ -440,29 +396,29 @@ class SpectralRows:
         n, T = self.n_sources, self.n_times
         memory.require(
             8 * n * T,
-            f"a ({n}, {T}) output array in memory (stream it instead: Reconstruction.to_zarr, "
-            ".blocks or .to_dask)",
+            f"a ({n}, {T}) output array in memory (stream it instead: skf_ref.io.to_zarr, "
+            "Reconstruction.blocks or skf_ref.io.to_dask)",
             budget=self.memory_limit,
         )
         result = np.empty((T, n))
         if not (name == "z" and self.smoother == "rts-standardized" and self._delta is None):
-            return self.block(name, slice(0, n), out=result)
+            return self._fill_block(name, slice(0, n), out=result)
         self.standardization.prepare()
         S = self.steady
         eta = self._steady_means() if S < T else None
         zeta = np.zeros((S, self.V.shape[1]))
         if S:
-            tiles = _tiles(0, n, S, result.T)
+            items = tiles.tiles(0, n, S, result.T)
 
-            def transient(item):  # z_{t|t} of a tile before steady, and its share of zeta
+            def transient(item: tuple[slice, slice]) -> _Array:  # z_{t|t}, its share of zeta
                 rows, times = item
                 z = self._standardized(self.u, rows, times, result[times, rows].T)
                 return z.T @ self.V[rows]
 
-            for (_, times), share in zip(tiles, map_threads(transient, tiles), strict=True):
+            for (_, times), share in zip(items, map_threads(transient, items), strict=True):
                 zeta[times] += share  # in tile order, whatever the number of threads
             n_parts = min(8, max(1, n // SMOOTH_PART_COLUMNS))
-            parts = list(_slices(0, n, -(-n // n_parts)))
+            parts = list(tiles.slices(0, n, -(-n // n_parts)))
             for _ in map_threads(lambda p: self._smooth_transient(result[:, p], p, eta), parts):
                 pass
         self._delta = self.correction_from(zeta, eta)
@@ -470,55 +426,8 @@ class SpectralRows:
         self._correct(0, n, result.T, self._delta)
         return result
 
-    def min_raw_weight(self):
-        """The smallest raw weight over every source and step (only to explain a failure)."""
-        steps = slice(0, min(self.steady + 1, self.n_times))
-        return min(
-            np.min(self.standardization.raw(rows, steps))
-            for rows in _slices(0, self.n_sources, max(1, BLOCK_BYTES // (8 * steps.stop)))
-        )
 
-
-def _split(times, steady):
-    """``times`` cut at ``steady``: the steps before it and from it on (None when empty)."""
-    first, stop = times.start, times.stop
-    cut = min(max(steady, first), stop)
-    return (slice(first, cut) if cut > first else None), (slice(cut, stop) if stop > cut else None)
-
-
-def _slices(first, stop, step):
-    """Consecutive slices of ``first:stop``, ``step`` long (the last may be shorter)."""
-    for start in range(first, stop, step):
-        yield slice(start, min(start + step, stop))
-
-
-def _row_blocks(first, stop, n_steps):
-    """Row blocks of ``first:stop`` of about :data:`BLOCK_BYTES` at ``n_steps`` steps."""
-    return list(_slices(first, stop, max(1, BLOCK_BYTES // (8 * n_steps))))
-
-
-def _tiles(first, stop, n_times, target=None):
-    """(rows, steps) tiles of rows ``first:stop`` x all steps, about BLOCK_BYTES each:
-    whole rows when they fit MIN_BLOCK_COLUMNS at a time, else cut in steps too. In a
-    time-major ``target`` (the transpose of an (n_times, n) array) a tile is
-    TIME_MAJOR_COLUMNS rows wide: each of its steps is one contiguous run of memory."""
-    rows = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * n_times))
-    if target is not None and target.strides[0] < target.strides[1]:
-        rows = TIME_MAJOR_COLUMNS
-    steps = max(1, BLOCK_BYTES // (8 * min(rows, max(1, stop - first))))
-    return [(r, t) for r in _slices(first, stop, rows) for t in _slices(0, n_times, steps)]
-
-
-def _tiles_by_steps(first, stop, step_first, step_stop):
-    """(steps, rows) tiles of the steps ``step_first:step_stop``, steps outermost."""
-    n = step_stop - step_first
-    width = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * max(1, min(n, 8192))))
-    for steps in _slices(step_first, step_stop, 8192):
-        for rows in _slices(first, stop, width):
-            yield steps, rows
-
-
-def _add_product(out, V_rows, delta):
+def _add_product(out: _Array, V_rows: _Array, delta: _Array) -> _Array:
     """``out += V_rows @ delta.T`` ((k, n) += (k, r) (r, n)) without a (k, n) temporary
     where ``out`` is C-contiguous (BLAS gemm with beta = 1 accumulates into it); else
     through a temporary in ``out``'s own order."""

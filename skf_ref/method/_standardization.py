@@ -7,7 +7,10 @@ standardization of a smoothed state for ``"rts-state"`` (docs/model.md §3).
 """
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy import linalg
+
+_Array = NDArray[np.float64]
 
 __all__ = [
     "inverse_sqrt",
@@ -20,7 +23,7 @@ __all__ = [
 ]
 
 
-def raw_weights(P_pred_inv_sqrt, K, S):
+def raw_weights(P_pred_inv_sqrt: _Array, K: _Array, S: _Array) -> _Array:
     """The raw weights of §2.2 eq. (7) from the filter's matrices.
 
     Parameters
@@ -47,7 +50,7 @@ def raw_weights(P_pred_inv_sqrt, K, S):
     return np.einsum("ij,jk,ik->i", M, S, M)
 
 
-def standardization_weights(w, exponent, out=None):
+def standardization_weights(w: _Array, exponent: float, out: _Array | None = None) -> _Array:
     """The diagonal of ``W_t^(alpha) = Diag(w_t)^(-alpha)``, §2.2 eq. (7).
 
     ``out`` (which may be ``w`` itself) receives the result. An overflow gives ``inf``
@@ -69,8 +72,8 @@ def standardization_weights(w, exponent, out=None):
     """
     out = np.empty_like(w, dtype=float) if out is None else out
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        if exponent == 0:
-            out[...] = 1.0
+        if exponent == 0:  # 1, NaN kept (a missing step has no weights)
+            np.add(np.multiply(w, 0.0, out=out), 1.0, out=out)
         elif exponent == 0.5:
             np.reciprocal(np.sqrt(w, out=out), out=out)
         elif exponent == 1:
@@ -82,7 +85,9 @@ def standardization_weights(w, exponent, out=None):
     return out
 
 
-def standardize(w, whitened, exponent, out=None):
+def standardize(
+    w: _Array, whitened: _Array, exponent: float, out: _Array | None = None
+) -> tuple[_Array, _Array]:
     """Apply §2.2 eqs. (7) and (6) to raw weights and whitened means.
 
     Parameters
@@ -116,7 +121,9 @@ def standardize(w, whitened, exponent, out=None):
         return weights, np.multiply(whitened, weights, out=out)
 
 
-def standardized_means(w, whitened, exponent, out=None):
+def standardized_means(
+    w: _Array, whitened: _Array, exponent: float, out: _Array | None = None
+) -> _Array:
     """``z`` of :func:`standardize` alone.
 
     Examples
@@ -127,7 +134,7 @@ def standardized_means(w, whitened, exponent, out=None):
     return standardize(w, whitened, exponent, out=out)[1]
 
 
-def overflow_cause(w_min, exponent):
+def overflow_cause(w_min: float, exponent: float) -> str:
     """Why ``W_t = w_t^-exponent`` (7) or ``z`` overflowed, from the smallest raw weight.
 
     Parameters
@@ -164,7 +171,7 @@ def overflow_cause(w_min, exponent):
     )
 
 
-def restandardize(w, P_pred_inv_sqrt, x, exponent):
+def restandardize(w: _Array, P_pred_inv_sqrt: _Array, x: _Array, exponent: float) -> _Array:
     """Standardize a smoothed state with the filter's own weights (``"rts-state"``).
 
     ``z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t`` (docs/model.md §3).
@@ -191,7 +198,7 @@ def restandardize(w, P_pred_inv_sqrt, x, exponent):
     return standardize(w, np.einsum("tij,tj->ti", P_pred_inv_sqrt, x), exponent)[1]
 
 
-def inverse_sqrt(P):
+def inverse_sqrt(P: _Array) -> _Array:
     """Symmetric inverse square root ``P^{-1/2}`` of an SPD matrix, by ``eigh``.
 
     Parameters

@@ -3,13 +3,20 @@
 At a given PM-SNR, the EP-SNR at which the whitened residual of the filtered means, ``sum_t
 ||C^{-1} (y_t - L x_{t|t})||^2``, equals its expected value under the noise model, ``n_channels *
 n_times``; over a range of PM-SNRs, the one of largest marginal likelihood along the curve of those
-solutions. :func:`skf_ref.method.tuning.tune` (``criterion="discrepancy"``) calls
+solutions. :func:`skf_ref.tune` (``criterion="discrepancy"``) calls
 :func:`choose_on_curve` with the residual and the likelihood of
-:class:`skf_ref.method.paths.singular_basis.SpectralBasis`; the functions here see only SNRs in dB
+:class:`skf_ref.method.SpectralBasis`; the functions here see only SNRs in dB
 and the values of those two sums, batched over (PM, EP) pairs.
 """
 
+from collections.abc import Callable, Sequence
+from typing import Any
+
 import numpy as np
+from numpy.typing import NDArray
+
+_Curve = Callable[[NDArray[np.float64]], NDArray[np.float64]]
+_Range = tuple[float, float]
 
 __all__ = ["choose_on_curve", "discrepancy_ep", "roots"]
 
@@ -22,7 +29,12 @@ ROOT_STEPS = 200
 PM_TOL_DB = 1e-4
 
 
-def choose_on_curve(log_likelihoods, excess, pm_axis, ranges):
+def choose_on_curve(
+    log_likelihoods: _Curve,
+    excess: _Curve,
+    pm_axis: NDArray[np.float64],
+    ranges: Sequence[_Range],
+) -> tuple[NDArray[np.float64], float, Any]:
     """The discrepancy's EP-SNR at each PM-SNR, and the PM-SNR of largest likelihood.
 
     The PM-SNRs considered are those whose EP-SNR solves the principle inside its range
@@ -55,7 +67,9 @@ def choose_on_curve(log_likelihoods, excess, pm_axis, ranges):
 
     pm_range, ep_range = ranges
 
-    def along(pm):
+    def along(
+        pm: Any,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
         pm = np.asarray(pm, dtype=float)
         ep, solved = discrepancy_ep(excess, pm, ep_range)
         points = np.column_stack([pm, ep])
@@ -92,7 +106,9 @@ def choose_on_curve(log_likelihoods, excess, pm_axis, ranges):
     return best, best_value, curve
 
 
-def discrepancy_ep(excess, pm, ep_range):
+def discrepancy_ep(
+    excess: _Curve, pm: NDArray[np.float64], ep_range: _Range
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """The EP-SNR at which ``excess`` (residual minus its target) vanishes, at each PM-SNR.
 
     Where the ends of the EP range bracket a sign change, :func:`roots` (all PM-SNRs at
@@ -131,7 +147,7 @@ def discrepancy_ep(excess, pm, ep_range):
     return out, solved
 
 
-def _edge(excess, solved_pm, unsolved_pm, ep_end):
+def _edge(excess: _Curve, solved_pm: float, unsolved_pm: float, ep_end: float) -> float:
     """The PM-SNR between the two where the discrepancy's EP-SNR reaches ``ep_end``."""
     pms = np.array([solved_pm, unsolved_pm])
     signs = np.sign(excess(np.column_stack([pms, [ep_end, ep_end]])))
@@ -144,7 +160,11 @@ def _edge(excess, solved_pm, unsolved_pm, ep_end):
     return root
 
 
-def roots(f, low, high):
+def roots(
+    f: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    low: NDArray[np.float64],
+    high: NDArray[np.float64],
+) -> NDArray[np.float64]:
     """Where ``f`` changes sign in each bracket ``[low, high]``, to ``ROOT_TOL_DB``.
 
     Regula falsi with the Illinois modification, all brackets at once: like bisection, each

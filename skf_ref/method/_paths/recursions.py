@@ -1,7 +1,7 @@
 r"""The spectral path's rank-r recursions, and the steady state they settle into.
 
 In the singular basis of the whitened lead field, ``L~ = U diag(s) V^T``
-(:mod:`skf_ref.method.paths.spectral` derives it), the covariances of the paper's model
+(``skf_ref.method._paths.spectral`` derives it), the covariances of the paper's model
 (``A = a I``, ``Q = q I``, ``P_0 = theta0 I``) are ``r = rank(L)`` numbers a step,
 ``p_{t|t-1}``, and one scalar on the complement of span V, carried as ``u_t = q / c_t``.
 This module holds those recursions, the filtered means and the smoother's backward passes.
@@ -27,23 +27,28 @@ scalar gain ``beta_t``) falls like ``1/t`` when ``a = 1`` and is never held.
 
 The tests compare held and full recursions on problems long enough to settle: the outputs
 agree to 1e-12 relative (tests/test_steady.py).
+
+Missing steps
+-------------
+At a step without a measurement (docs/model.md §2) the covariance is predicted and not
+updated, ``p_{t|t} = p_{t|t-1}``, and the means follow ``xi_t = a xi_{t-1}``; such a step
+adds nothing to the log-likelihood and has no weights (``omega`` is NaN there). A gap moves
+``p`` away from ``p_inf``, and the observed steps after it converge again, monotonically: the
+steady state is looked for only after the last missing step, and every step before it is
+stored, ``8 r`` bytes a step per (n_times, r) array (``p_pred``, and ``p_filt``, ``omega``
+and the smoother's gains when used). A recording without gaps is held as before.
 """
 
 import functools
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy import signal
 
-__all__ = [
-    "CHUNK_COLUMNS",
-    "CHUNK_STEPS",
-    "LFILTER_STEPS",
-    "STEADY_RTOL",
-    "Recursions",
-    "backward",
-    "fixed_point",
-    "recurrence",
-]
+__all__ = ["Recursions", "backward", "fixed_point", "recurrence"]
+
+_Array = NDArray[np.float64]
 
 #: Relative change of ``p_{t|t-1}`` over the rest of the recording below which
 #: :class:`Recursions` holds it (module docstring): 45 units of double rounding, 10 times
@@ -57,7 +62,7 @@ _CHECK_STEPS = 32
 LFILTER_STEPS = 4096
 
 
-def fixed_point(s, a, q):
+def fixed_point(s: _Array, a: float, q: ArrayLike) -> _Array:
     """``p_inf``, the limit of ``p_{t|t-1}``: positive root of ``s^2 p^2 + b p - q = 0``.
 
     ``b = 1 - a^2 - q s^2``; each root formula is used where it does not cancel. NaN where
@@ -101,11 +106,15 @@ class Recursions:
     n_times : int
     rtol : float, optional
         Default :data:`STEADY_RTOL`; a negative value never holds (the full recursion).
+    missing : ndarray of bool, shape (n_times,), optional
+        The steps without a measurement (docs/model.md §2): predicted, not updated.
 
     Attributes
     ----------
     steady : int
-        First step of the steady state (``n_times`` if the recording ends before it).
+        First step of the steady state (``n_times`` if the recording ends before it). It
+        comes after the last missing step: every step before it is stored.
+    missing : ndarray of bool, shape (n_times,)
     p_pred : ndarray, shape (n_stored, ..., r)
         ``p_{t|t-1}`` for ``t < n_stored = min(steady + 1, n_times)``; the last row holds
         for every later step.
@@ -119,11 +128,24 @@ class Recursions:
     (True, True)
     """
 
-    def __init__(self, s, a, q, theta0, n_times, rtol=None):
+    def __init__(
+        self,
+        s: NDArray[np.float64],
+        a: float,
+        q: ArrayLike,
+        theta0: ArrayLike,
+        n_times: int,
+        rtol: float | None = None,
+        missing: NDArray[np.bool_] | None = None,
+    ) -> None:
         rtol = STEADY_RTOL if rtol is None else rtol
         q, theta0 = np.asarray(q, dtype=float), np.asarray(theta0, dtype=float)
         batch = np.broadcast_shapes(q.shape, theta0.shape)
         self.s, self.a, self.n_times = s, a, n_times
+        self.missing = np.zeros(n_times, bool) if missing is None else missing
+        # the steady state can only hold after the last missing step (a gap restarts the
+        # transient): the steps before it are kept one by one
+        after_gaps = int(np.flatnonzero(self.missing)[-1]) + 1 if self.missing.any() else 0
         target = fixed_point(s, a, np.broadcast_to(q, batch))
         p_pred = np.empty((n_times, *batch, len(s)))
         q_ = q[..., None]  # broadcast against s
@@ -135,43 +157,61 @@ class Recursions:
                 # P_{t|t-1} = a^2 P_{t-1|t-1} + q I                        §2.2 (4)
                 p_pred[t] = a**2 * p + q_
                 # P_{t|t} = P_{t|t-1} - K S K^T: on span V p / (s^2 p + 1)  §2.2 (5)
-                p = p_pred[t] / (s**2 * p_pred[t] + 1)
-            settled = _settled(p_pred[start:stop], target, rtol)
+                # (at a missing step P_{t|t} = P_{t|t-1}: no update)   docs/model.md §2
+                p = p_pred[t] if self.missing[t] else p_pred[t] / (s**2 * p_pred[t] + 1)
+            first = max(start, after_gaps)
+            settled = _settled(p_pred[first:stop], target, rtol) if first < stop else None
             if settled is not None:
-                self.steady = start + settled
+                self.steady = first + settled
                 break
         self.p_pred = p_pred[: min(self.steady + 1, n_times)].copy()
         self.u = _complement(a, q, theta0, batch, n_times)
 
     @property
-    def held(self):
+    def held(self) -> bool:
         """bool : Whether the recording reaches the steady state."""
         return self.steady < self.n_times
 
-    def expand(self, rows, times):
+    def expand(self, rows: _Array, times: slice) -> _Array:
         """Rows of a per-step array of ``p_pred``'s length at steps ``times`` (a slice)."""
         first, stop, _ = times.indices(self.n_times)
         index = np.minimum(np.arange(first, stop), len(rows) - 1)
         return rows[index]
 
     @property
-    def p_filt(self):
-        """ndarray, shape (n_stored, ..., r) : ``p_{t|t}``, rows as ``p_pred``."""
-        return self.p_pred / (self.s**2 * self.p_pred + 1)
+    def n_observed(self) -> int:
+        """int : The steps with a measurement."""
+        return self.n_times - int(np.count_nonzero(self.missing))
+
+    def _stored_missing(self) -> NDArray[np.bool_]:
+        """The missing steps among the stored rows, shaped to broadcast against them."""
+        gaps = self.missing[: len(self.p_pred)]
+        return gaps.reshape((len(gaps),) + (1,) * (self.p_pred.ndim - 1))
 
     @property
-    def omega(self):
-        """ndarray, shape (n_stored, ..., r) : ``s^2 p / (s^2 p + 1)``, the raw weights'
-        coefficients (``w = (V o V) omega``), rows as ``p_pred``."""
-        return self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)
+    def p_filt(self) -> NDArray[np.float64]:
+        """ndarray, shape (n_stored, ..., r) : ``p_{t|t}``, rows as ``p_pred``
+        (``p_{t|t-1}`` at a missing step)."""
+        updated = self.p_pred / (self.s**2 * self.p_pred + 1)
+        return np.where(self._stored_missing(), self.p_pred, updated)
 
-    def log_det_innovations(self):
-        """``sum_t log det S~_t`` (...): ``s^2 p_{t|t-1} + 1`` on span U, 1 off it."""
+    @property
+    def omega(self) -> NDArray[np.float64]:
+        """ndarray, shape (n_stored, ..., r) : ``s^2 p / (s^2 p + 1)``, the raw weights'
+        coefficients (``w = (V o V) omega``), rows as ``p_pred``; NaN at a missing step,
+        which has no weights."""
+        omega = self.s**2 * self.p_pred / (self.s**2 * self.p_pred + 1)
+        return np.where(self._stored_missing(), np.nan, omega)
+
+    def log_det_innovations(self) -> NDArray[np.float64]:
+        """``sum_t log det S~_t`` (...) over the observed steps: ``s^2 p_{t|t-1} + 1`` on
+        span U, 1 off it."""
         terms = np.sum(np.log(self.s**2 * self.p_pred + 1), axis=-1)
-        return np.sum(terms, axis=0) + (self.n_times - len(terms)) * terms[-1]
+        observed = np.where(self._stored_missing()[..., 0], 0.0, terms)
+        return np.sum(observed, axis=0) + (self.n_times - len(terms)) * terms[-1]
 
     @functools.cached_property
-    def gains(self):
+    def gains(self) -> tuple[_Array, _Array]:
         """The smoother's gains: ``gamma_t`` on span V, ``beta_t`` on its complement.
 
         Returns
@@ -189,7 +229,7 @@ class Recursions:
             gamma = np.concatenate([gamma, self.a * p_filt[-1:] / p_pred[-1:]])
         return gamma, self.a / (self.a**2 + self.u[:-1])
 
-    def smooth_state(self, xi):
+    def smooth_state(self, xi: _Array) -> _Array:
         """``"rts-state"`` in the basis: ``xi^s_t = xi_t + gamma_t (xi^s_{t+1} - a xi_t)``.
 
         Parameters
@@ -206,8 +246,8 @@ class Recursions:
         out[-1] = xi[-1]
         return self._backward_gamma(out)
 
-    def correction(self, zeta):
-        """``delta`` of the paper's smoother (:mod:`skf_ref.method.paths.spectral`), in place.
+    def correction(self, zeta: _Array) -> _Array:
+        """``delta`` of the paper's smoother (``skf_ref.method._paths.spectral``), in place.
 
         ``chi`` obeys the scalar recursion on ``zeta``; ``delta_T = 0``,
         ``delta_t = gamma_t delta_{t+1} + (gamma_t - beta_t)(chi_{t+1} - a zeta_t)``.
@@ -231,13 +271,13 @@ class Recursions:
         zeta[-1] = 0.0
         return self._backward_gamma(zeta)
 
-    def _gamma(self, times):
+    def _gamma(self, times: slice) -> _Array:
         """``gamma_t`` at steps ``times`` (within 0 .. T-2), the held row past the stored."""
         gamma, _ = self.gains
         first, stop, _ = times.indices(self.n_times - 1)
         return gamma[np.minimum(np.arange(first, stop), len(gamma) - 1)]
 
-    def _backward_gamma(self, c):
+    def _backward_gamma(self, c: _Array) -> _Array:
         """``x_t = gamma_t x_{t+1} + c_t``, t = T-2 .. 0, from ``x_{T-1} = c_{T-1}``; in place."""
         gamma, _ = self.gains
         own, last = len(gamma) - self.held, len(c) - 1  # steps with their own gain; T-1
@@ -247,7 +287,7 @@ class Recursions:
             recurrence(gamma[:own], c[:own], start=c[own], out=c[:own], reverse=True)
         return c
 
-    def filter_means(self, eta):
+    def filter_means(self, eta: _Array) -> tuple[_Array, Any, Any]:
         """The filtered means in the basis and two sums over their innovations.
 
         Parameters
@@ -270,7 +310,10 @@ class Recursions:
         eta = eta.reshape((T,) + (1,) * (self.p_pred.ndim - 2) + (len(s),))
         # x_{t|t} = a x + K~ (y~ - L~ a x) with K~ = V diag(p s / (s^2 p + 1)) U^T §2.2 (5)
         #         = (a / (s^2 p + 1)) x + (p s / (s^2 p + 1)) eta
-        decay, gain = a / denom, s * self.p_pred / denom
+        # and at a missing step x_{t|t} = a x: no gain                  docs/model.md §2
+        gaps = self._stored_missing()
+        decay = np.where(gaps, a, a / denom)
+        gain = np.where(gaps, 0.0, s * self.p_pred / denom)
         n = len(denom) - self.held  # the steps with their own coefficients
         xi = np.empty(np.broadcast_shapes((T, *denom.shape[1:]), eta.shape))
         np.multiply(gain[:n], eta[:n], out=xi[:n])
@@ -279,16 +322,18 @@ class Recursions:
             np.multiply(gain[-1], eta[n:], out=xi[n:])
             recurrence(decay[-1], xi[n:], start=xi[n - 1] if n else None, out=xi[n:])
         quadratic, residual = 0.0, 0.0
+        observed = ~self.missing.reshape((T,) + (1,) * (xi.ndim - 1))
         for times in _tiles(T):
             previous = xi[times.start - 1 : times.stop - 1] if times.start else _shifted(xi, times)
-            innovation = eta[times] - s * a * previous  # U^T (y~_t - L~ x_{t|t-1})
+            # U^T (y~_t - L~ x_{t|t-1}) at the observed steps: no innovation at a missing one
+            innovation = (eta[times] - s * a * previous) * observed[times]
             d = self.expand(denom, times)
             quadratic = quadratic + np.sum(innovation**2 / d, axis=(0, -1))
             residual = residual + np.sum((innovation / d) ** 2, axis=(0, -1))
         return xi, quadratic, residual
 
 
-def _settled(p_pred, target, rtol):
+def _settled(p_pred: _Array, target: _Array, rtol: float) -> int | None:
     """First row of ``p_pred`` within ``rtol / 2`` of ``target`` in every entry, or None."""
     with np.errstate(invalid="ignore"):
         close = np.abs(p_pred - target) <= rtol / 2 * target
@@ -296,7 +341,9 @@ def _settled(p_pred, target, rtol):
     return int(rows[0]) if len(rows) else None
 
 
-def _complement(a, q, theta0, batch, n_times):
+def _complement(
+    a: float, q: _Array, theta0: _Array, batch: tuple[int, ...], n_times: int
+) -> _Array:
     """``u_t = q / c_{t|t-1}`` (n_times, ...) with ``c' = a^2 c + q``: ``u' = u / (a^2 + u)``.
 
     ``c`` grows as ``a^(2t)`` when ``|a| > 1`` and would overflow on long runs; ``u`` stays
@@ -317,18 +364,24 @@ def _complement(a, q, theta0, batch, n_times):
     return np.nan_to_num(u)
 
 
-def _tiles(n_times, steps=8192):
+def _tiles(n_times: int, steps: int = 8192) -> list[slice]:
     return [slice(t, min(t + steps, n_times)) for t in range(0, n_times, steps)]
 
 
-def _shifted(xi, times):
+def _shifted(xi: _Array, times: slice) -> _Array:
     """``xi`` at steps ``times`` shifted one step back, with zeros before step 0."""
     previous = np.zeros((times.stop - times.start, *xi.shape[1:]))
     previous[1:] = xi[: times.stop - 1]
     return previous
 
 
-def recurrence(decay, c, start=None, out=None, reverse=False):
+def recurrence(
+    decay: Any,
+    c: _Array,
+    start: Any = None,
+    out: _Array | None = None,
+    reverse: bool = False,
+) -> _Array:
     """``x_t = decay_t x_{t-1} + c_t`` from ``x_{-1} = start`` (default 0), elementwise.
 
     With ``reverse`` the recursion runs from the end: ``x_t = decay_t x_{t+1} + c_t`` from
@@ -388,7 +441,7 @@ CHUNK_STEPS = 16
 CHUNK_COLUMNS = 2048
 
 
-def backward(z, gain, a, overwrite=False):
+def backward(z: _Array, gain: _Array, a: float, overwrite: bool = False) -> _Array:
     """``s_t = z_t + G_t (s_{t+1} - a z_t)``, ``s_T = z_T``; one scalar gain per step, (T-1,).
 
     With ``overwrite`` the result replaces ``z`` (step t reads only ``z_t`` and ``s_{t+1}``).
@@ -421,7 +474,7 @@ def backward(z, gain, a, overwrite=False):
     return s
 
 
-def _chunk_matrices(gain, a, b):
+def _chunk_matrices(gain: _Array, a: float, b: int) -> _Array:
     """The backward pass over chunks of ``b`` steps as matrices, (len(gain) // b, b, b + 1).
 
     For the chunk of steps ``t0 .. t0+b-1``, ``s[t0:t0+b] = M @ v`` with ``v`` the rows

@@ -4,11 +4,11 @@ The Kalman filter gives the marginal likelihood of the data, ``log p(Y | theta0,
 of its innovations' log densities, and the filtered residual ``y_t - L x_{t|t}`` whose whitened
 energy the discrepancy principle matches to the noise's. In the singular basis of the whitened lead
 field both need only the rank-r recursions
-(:class:`skf_ref.method.paths.singular_basis.SpectralBasis`): one SVD, then a few hundred
+(:class:`skf_ref.method.SpectralBasis`): one SVD, then a few hundred
 microseconds per prior pair at the paper's scale, with no n-dimensional array at all, so a whole
 grid of priors costs little more than one reconstruction.
 
-A searched SNR chosen on (within :data:`BOUND_TOL_DB` of) an end of its range is reported:
+A searched SNR chosen on (within ``BOUND_TOL_DB``, 0.01 dB, of) an end of its range is reported:
 the criterion would have gone further, so the range, not the data, made the choice.
 :func:`tune` then warns (``UserWarning``) naming the parameter and the bound, and
 ``at_bound`` of the :class:`TuneResult` records it.
@@ -16,16 +16,28 @@ the criterion would have gone further, so the range, not the data, made the choi
 
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any, cast
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-from .._utils.checks import InputError, check_choice, check_db, check_int, check_real, describe
+from .._utils.checks import (
+    MAX_DB,
+    InputError,
+    check_choice,
+    check_db,
+    check_int,
+    check_real,
+    describe,
+)
 from .._utils.log import caller_stacklevel
-from .discrepancy import choose_on_curve
-from .model import StateSpaceModel
-from .paths.singular_basis import SpectralBasis, whitener
-from .priors import (
+from .._utils.reprs import html_table
+from ._discrepancy import choose_on_curve
+from ._model import StateSpaceModel
+from ._paths.singular_basis import SpectralBasis, whitener
+from ._priors import (
     CONVENTIONS,
     evolution_variance,
     lead_field_amplitude,
@@ -66,7 +78,7 @@ class TuneResult:
         How the SNRs were chosen.
     at_bound : dict
         ``"pm_snr_db"`` and/or ``"ep_snr_db"`` -> ``"lower"`` or ``"upper"``: the searched
-        SNRs chosen on (within :data:`BOUND_TOL_DB` of) an end of their range. Empty when
+        SNRs chosen on (within 0.01 dB, ``BOUND_TOL_DB``, of) an end of their range. Empty when
         every searched SNR is inside its range; a fixed SNR is never listed.
     residual_energy : float
         ``sum_t ||C^{-1} (y_t - L x_{t|t})||^2`` at the chosen priors (``R = C C^T``): the
@@ -81,14 +93,14 @@ class TuneResult:
     theta0: float
     q: float
     log_likelihood: float
-    landscape: object
+    landscape: Any
     convention: str
     criterion: str = "likelihood"
-    at_bound: dict = field(default_factory=dict)
+    at_bound: dict[str, str] = field(default_factory=dict)
     residual_energy: float = math.nan
-    curve: object = None
+    curve: Any = None
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         bounds = ", ".join(f"{name} on its {end} bound" for name, end in self.at_bound.items())
         return (
             f"<TuneResult | PM-SNR {self.pm_snr_db:.2f} dB, EP-SNR {self.ep_snr_db:.2f} dB, "
@@ -96,8 +108,24 @@ class TuneResult:
             f"{'; ' + bounds if bounds else ''}>"
         )
 
+    def _repr_html_(self) -> str:
+        """The choice as a table, for notebooks (the grid stays in ``landscape``)."""
+        bounds = ", ".join(f"{name}: {end}" for name, end in self.at_bound.items())
+        rows = {
+            "PM-SNR (dB)": f"{self.pm_snr_db:.2f}",
+            "EP-SNR (dB)": f"{self.ep_snr_db:.2f}",
+            "theta0": f"{self.theta0:.6g}",
+            "q": f"{self.q:.6g}",
+            "Log-likelihood": f"{self.log_likelihood:.6g}",
+            "Criterion": self.criterion,
+            "Convention": self.convention,
+            "On a bound": bounds or "none",
+            "Grid cells": len(self.landscape),
+        }
+        return html_table("TuneResult", rows)
 
-def _search_range(name, value):
+
+def _search_range(name: str, value: Any) -> tuple[float, float]:
     """A fixed SNR (one number), a search range (lo, hi), lo < hi, or "auto"."""
     if isinstance(value, str) and value == "auto":
         return AUTO_RANGE_DB
@@ -115,18 +143,18 @@ def _search_range(name, value):
 
 
 def tune(
-    L,
-    Y,
+    L: ArrayLike,
+    Y: ArrayLike,
     *,
-    noise_std=None,
-    noise_cov=None,
-    pm_snr_db=AUTO_RANGE_DB,
-    ep_snr_db=AUTO_RANGE_DB,
-    transition=1.0,
-    convention="gain",
-    grid=13,
-    criterion="likelihood",
-):
+    noise_std: float | None = None,
+    noise_cov: ArrayLike | None = None,
+    pm_snr_db: float | tuple[float, float] | str = AUTO_RANGE_DB,
+    ep_snr_db: float | tuple[float, float] | str = AUTO_RANGE_DB,
+    transition: float = 1.0,
+    convention: str = "gain",
+    grid: int = 13,
+    criterion: str = "likelihood",
+) -> TuneResult:
     r"""PM-SNR and EP-SNR chosen from the data by the marginal likelihood or the discrepancy.
 
     ``criterion="likelihood"`` (default): the SNRs that maximize the marginal likelihood of
@@ -144,7 +172,7 @@ def tune(
 
     with ``m = n_channels`` (the rows of the whitened data ``C^{-1} Y``) and ``T = n_times``,
     found by a bracketing root search in dB within the EP-SNR range, to 1e-10 dB
-    (:mod:`skf_ref.method.discrepancy`); where the residual does not cross ``m T`` inside the
+    (``skf_ref.method._discrepancy``); where the residual does not cross ``m T`` inside the
     range, the end where it comes nearest. The principle says nothing of the PM-SNR: a
     number fixes it; over a range, the PM-SNR is the one of largest marginal likelihood
     along the curve of those solutions (the ``grid`` PM-SNRs whose solution lies inside
@@ -152,7 +180,7 @@ def tune(
     best one's neighbours). A fixed EP-SNR leaves the principle nothing to solve: the
     PM-SNR is then chosen by the likelihood at that EP-SNR.
 
-    A searched SNR chosen within :data:`BOUND_TOL_DB` of an end of its range raises a
+    A searched SNR chosen within 0.01 dB (``BOUND_TOL_DB``) of an end of its range raises a
     ``UserWarning`` that names it and the bound (widen the range to let the criterion
     decide), and is listed in the result's ``at_bound``. A fixed SNR never warns.
 
@@ -165,7 +193,7 @@ def tune(
         Give exactly one, as for :func:`skf_ref.reconstruct`.
     pm_snr_db, ep_snr_db : (float, float) or float or "auto"
         The range searched, in dB; a single number fixes that SNR; ``"auto"`` is the
-        default range, :data:`AUTO_RANGE_DB`.
+        default range, (-20, 40) dB (``AUTO_RANGE_DB``).
     transition : float
         ``A = transition I``.
     convention : {"gain", "toolbox"}
@@ -213,22 +241,22 @@ def tune(
     model = StateSpaceModel.create(
         L, noise_std=noise_std, noise_cov=noise_cov, theta0=1.0, q=1.0, transition=transition
     )
-    Y = model.check_data(Y)
+    data = model.check_data(Y)
     if convention == "toolbox":
         if noise_std is None:
             raise InputError("convention='toolbox' needs noise_std (relative to max|Y|)")
-        scale = np.max(np.abs(Y))
+        scale = np.max(np.abs(data))
         relative_std = check_real("noise_std", noise_std) / scale
         model = StateSpaceModel.create(
             model.L, noise_std=relative_std, theta0=1.0, q=1.0, transition=transition
         )
-        Y = Y / scale
+        data = data / scale
     basis = SpectralBasis(model.L, model.R)
-    priors = _priors(model, basis, convention, Y.shape[1])
+    priors = _priors(model, basis, convention, data.shape[1])
     a = float(model.transition)
 
-    def log_likelihoods(points):
-        return basis.log_likelihood(Y, *priors(points), a)
+    def log_likelihoods(points: NDArray[np.float64]) -> NDArray[np.float64]:
+        return basis.log_likelihood(data, *priors(points), a)
 
     axes = [
         np.linspace(low, high, grid) if low < high else np.array([low]) for low, high in ranges
@@ -242,13 +270,14 @@ def tune(
         if best_value < values.max():  # the refinement did not improve on the grid
             best, best_value = cells[np.argmax(values)], float(values.max())
     else:
-        target = Y.size  # m T: E||C^{-1} r_t||^2 = m at every step
+        # m T over the observed steps: E||C^{-1} r_t||^2 = m at every one
+        target = data.shape[0] * np.count_nonzero(~np.isnan(data[0]))
 
-        def excess(points):
-            return basis.residual_energy(Y, *priors(points), a) - target
+        def excess(points: NDArray[np.float64]) -> NDArray[np.float64]:
+            return basis.residual_energy(data, *priors(points), a) - target
 
         best, best_value, curve = choose_on_curve(log_likelihoods, excess, axes[0], ranges)
-    residual = basis.residual_energy(Y, *priors(best[None]), a)[0]
+    residual = basis.residual_energy(data, *priors(best[None]), a)[0]
     at_bound = _at_bound(best, ranges)
     _warn_at_bound(at_bound, best, ranges, criterion)
     return _result(
@@ -256,7 +285,9 @@ def tune(
     )
 
 
-def _priors(model, basis, convention, n_steps):
+def _priors(
+    model: StateSpaceModel, basis: SpectralBasis, convention: str, n_steps: int
+) -> Callable[[ArrayLike], tuple[NDArray[np.float64], NDArray[np.float64]]]:
     """(PM, EP) dB pairs (K, 2) -> theta0 (K,), q (K,), vectorized over the pairs."""
     if convention == "gain":
         # the whitened lead field with noise std 1: the same as priors_from_snr(L, sigma)
@@ -269,7 +300,7 @@ def _priors(model, basis, convention, n_steps):
     unit_theta0 = prior_variance(0.0, sigma, amplitude, model.n_sources)
     unit_q = evolution_variance(0.0, 1.0, n_steps)
 
-    def priors(points):
+    def priors(points: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         pm, ep = np.asarray(points, dtype=float).T
         if convention == "toolbox":
             pm = np.minimum(pm, snr_db - 1.0)  # the toolbox's clamp
@@ -286,7 +317,12 @@ def _priors(model, basis, convention, n_steps):
 _RESTARTS = 5
 
 
-def _refine(log_likelihoods, start, ranges, step_db=1e-3):
+def _refine(
+    log_likelihoods: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    start: NDArray[np.float64],
+    ranges: list[tuple[float, float]],
+    step_db: float = 1e-3,
+) -> NDArray[np.float64]:
     """L-BFGS-B on -log p over the searched SNRs, gradients by one batched evaluation."""
     from scipy.optimize import minimize
 
@@ -294,7 +330,7 @@ def _refine(log_likelihoods, start, ranges, step_db=1e-3):
     if not free:
         return np.asarray(start, dtype=float)
 
-    def objective(x):
+    def objective(x: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
         point = np.asarray(start, dtype=float).copy()
         point[free] = x
         shifted = np.repeat(point[None], 1 + len(free), axis=0)
@@ -315,7 +351,7 @@ def _refine(log_likelihoods, start, ranges, step_db=1e-3):
     return best
 
 
-def _at_bound(best, ranges):
+def _at_bound(best: NDArray[np.float64], ranges: list[tuple[float, float]]) -> dict[str, str]:
     """Searched SNRs within BOUND_TOL_DB of an end of their range -> "lower" or "upper"."""
     out = {}
     for name, value, (low, high) in zip(("pm_snr_db", "ep_snr_db"), best, ranges, strict=True):
@@ -326,7 +362,12 @@ def _at_bound(best, ranges):
     return out
 
 
-def _warn_at_bound(at_bound, best, ranges, criterion):
+def _warn_at_bound(
+    at_bound: dict[str, str],
+    best: NDArray[np.float64],
+    ranges: list[tuple[float, float]],
+    criterion: str,
+) -> None:
     """One UserWarning per SNR on a bound, pointing at the first caller outside skf_ref."""
     names = ("pm_snr_db", "ep_snr_db")
     for name, end in at_bound.items():
@@ -340,18 +381,30 @@ def _warn_at_bound(at_bound, best, ranges, criterion):
         else:
             why = "the marginal likelihood is largest there or beyond"
         further = "below" if end == "lower" else "above"
+        wider = (max(low - 20, -MAX_DB), high) if end == "lower" else (low, min(high + 20, MAX_DB))
         warnings.warn(
             f"tune: {name} = {best[i]:.2f} dB lies on the {end} bound {bound:g} dB of its "
             f"search range ({low:g}, {high:g}): {why}; widen {name} {further} {bound:g} dB "
-            "to let the data choose",
+            f"to let the data choose: {name}=({wider[0]:g}, {wider[1]:g}) in Python (tune, "
+            f"apply_skf, make_skf_operator) or --{name.replace('_', '-')}="
+            f"{wider[0]:g},{wider[1]:g} on the command line",
             UserWarning,
             stacklevel=caller_stacklevel(),
         )
 
 
 def _result(
-    cells, values, priors, best, best_value, convention, criterion, at_bound, residual, curve
-):
+    cells: NDArray[np.float64],
+    values: NDArray[np.float64],
+    priors: Callable[[ArrayLike], tuple[NDArray[np.float64], NDArray[np.float64]]],
+    best: NDArray[np.float64],
+    best_value: float,
+    convention: str,
+    criterion: str,
+    at_bound: dict[str, str],
+    residual: float,
+    curve: Any,
+) -> TuneResult:
     import pandas as pd
 
     theta0, q = priors(cells)
@@ -381,16 +434,16 @@ def _result(
 
 
 def choose_priors(
-    L,
-    Y,
+    L: ArrayLike,
+    Y: ArrayLike,
     *,
-    noise_std=None,
-    noise_cov=None,
-    pm_snr_db,
-    ep_snr_db,
-    convention="gain",
-    criterion="likelihood",
-):
+    noise_std: float | None = None,
+    noise_cov: ArrayLike | None = None,
+    pm_snr_db: float | str,
+    ep_snr_db: float | str,
+    convention: str = "gain",
+    criterion: str = "likelihood",
+) -> tuple[float, float, TuneResult | None]:
     """``theta0, q`` from two SNRs, either of which may be ``"auto"``, and how they were chosen.
 
     The SNRs are those of the whitened lead field (docs/model.md §4): with ``noise_std``,
@@ -403,7 +456,9 @@ def choose_priors(
     noise_std : float, optional
     noise_cov : array_like, shape (n_channels, n_channels), optional
         Give exactly one.
-    pm_snr_db, ep_snr_db : float or "auto"
+    pm_snr_db, ep_snr_db : float or "auto" or (float, float)
+        A number fixes the SNR; ``"auto"`` or a range ``(low, high)`` is searched by
+        :func:`tune`.
     convention : {"gain", "toolbox"}
         "toolbox" needs ``noise_std``.
     criterion : {"likelihood", "discrepancy"}
@@ -413,10 +468,10 @@ def choose_priors(
     -------
     theta0, q : float
     tuning : TuneResult or None
-        None when both SNRs were given.
+        None when both SNRs were numbers.
     """
     check_choice("criterion", criterion, CRITERIA)
-    if "auto" in (pm_snr_db, ep_snr_db):
+    if any(isinstance(v, str) or np.ndim(v) > 0 for v in (pm_snr_db, ep_snr_db)):
         result = tune(
             L,
             Y,
@@ -429,10 +484,11 @@ def choose_priors(
         )
         return result.theta0, result.q, result
     n_times = np.shape(Y)[-1]
+    pm, ep = cast(float, pm_snr_db), cast(float, ep_snr_db)  # numbers: "auto" went to tune
     if noise_cov is None:
-        return *priors_from_snr(L, noise_std, pm_snr_db, ep_snr_db, n_times, convention), None
+        return *priors_from_snr(L, cast(float, noise_std), pm, ep, n_times, convention), None
     if convention != "gain":
         raise InputError(f"convention={convention!r} needs noise_std, not noise_cov")
     model = StateSpaceModel.create(L, noise_cov=noise_cov, theta0=1.0, q=1.0)
     whitened = whitener(model.R)[0](model.L)
-    return *priors_from_snr(whitened, 1.0, pm_snr_db, ep_snr_db, n_times), None
+    return *priors_from_snr(whitened, 1.0, pm, ep, n_times), None

@@ -1,31 +1,32 @@
-r"""The singular basis of the whitened lead field, and the worker threads of the spectral path.
+r"""The singular basis of the whitened lead field: the part of the spectral path set by L and R.
 
-:mod:`skf_ref.method.paths.spectral` derives, equation by equation, why the filter and both
+``skf_ref.method._paths.spectral`` derives, equation by equation, why the filter and both
 smoothers of the paper's model (``A = a I``, ``Q = q I``, ``P_0 = theta0 I``) reduce to recursions
 on ``r = rank(L)`` numbers per step in the basis of the thin SVD ``L~ = U diag(s) V^T`` of the
 whitened lead field. This module holds :class:`SpectralBasis`, the whitening and the SVD, which
-depend on ``L`` and ``R`` only, and :func:`map_threads`, which runs the path's blocks on every
-core; the recursions are in :mod:`skf_ref.method.paths.recursions`.
+depend on ``L`` and ``R`` only (its blocks run on every core:
+``skf_ref._utils.threads.map_threads``); the recursions are in
+``skf_ref.method._paths.recursions``.
 
 :meth:`SpectralBasis.log_likelihood` and :meth:`SpectralBasis.residual_energy` run the
 recursions for arrays of K priors at once: a whole grid of priors (docs/model.md §4) for
 about the cost of one filter.
 """
 
-import collections
 import functools
-import itertools
-import threading
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy import linalg
 from scipy.linalg import lapack
 
 from ..._utils.checks import InputError
+from ..._utils.threads import map_threads
 from .recursions import Recursions
 
-__all__ = ["SpectralBasis", "log_likelihood", "map_threads", "thin_svd", "whitener"]
+__all__ = ["SpectralBasis", "log_likelihood", "thin_svd", "whitener"]
 
 _LOG_2PI = np.log(2 * np.pi)
 # Rows of L~^T in one block of the SVD's first stage (a work item of the worker threads).
@@ -38,79 +39,7 @@ _PRIORS_AT_ONCE = 16
 _PROJECT_STEPS = 8192
 
 
-@functools.cache
-def _blas():
-    from threadpoolctl import ThreadpoolController
-
-    return ThreadpoolController()
-
-
-def map_threads(func, items):
-    """``func`` over ``items`` in worker threads, the results in the order of ``items``.
-
-    One worker per BLAS thread this process may use (threadpoolctl: a caller that limits
-    BLAS, as joblib's workers do, limits this too), each on one BLAS thread, so the
-    elementwise work between BLAS calls runs on every core as well, and a core another
-    process keeps busy slows one worker, not every call. Results are consumed in order, at
-    most two per worker ahead, so sums over them are the same whatever the number of
-    workers, and memory stays bounded. The workers persist between calls (starting a
-    thread costs a millisecond or two); a call from inside a worker runs in that worker.
-
-    Parameters
-    ----------
-    func : callable
-        Must release the GIL for most of its time (numpy, BLAS, LAPACK do).
-    items : iterable
-
-    Yields
-    ------
-    object
-        ``func(item)`` for each item, in order.
-
-    Examples
-    --------
-    >>> list(map_threads(lambda k: k * k, range(5)))
-    [0, 1, 4, 9, 16]
-    """
-    controller = _blas().select(user_api="blas")
-    workers = max((entry["num_threads"] for entry in controller.info()), default=1)
-    if workers < 2 or getattr(_WORKER, "active", False):
-        yield from map(func, items)
-        return
-    pool = _pool(workers)
-
-    def run(item):
-        _WORKER.active = True
-        try:
-            return func(item)
-        finally:
-            _WORKER.active = False
-
-    items = iter(items)
-    with controller.limit(limits=1):
-        pending = collections.deque(
-            pool.submit(run, i) for i in itertools.islice(items, 2 * workers)
-        )
-        while pending:
-            result = pending.popleft().result()
-            pending.extend(pool.submit(run, i) for i in itertools.islice(items, 1))
-            yield result
-
-
-_WORKER = threading.local()
-_POOLS = {}
-_POOLS_LOCK = threading.Lock()
-
-
-def _pool(workers):
-    """The persistent pool of ``workers`` threads."""
-    with _POOLS_LOCK:
-        if workers not in _POOLS:
-            _POOLS[workers] = ThreadPoolExecutor(workers, thread_name_prefix="skf_ref")
-        return _POOLS[workers]
-
-
-def whitener(R):
+def whitener(R: NDArray[np.float64]) -> tuple[Callable[[Any], NDArray[np.float64]], float]:
     """``M -> C^{-1} M`` and ``log|det C|`` with ``R = C C^T`` (Cholesky).
 
     Parameters
@@ -128,7 +57,9 @@ def whitener(R):
     return functools.partial(linalg.solve_triangular, C, lower=True), np.sum(np.log(np.diag(C)))
 
 
-def thin_svd(Lw, whiten=None):
+def thin_svd(
+    Lw: NDArray[np.float64], whiten: Callable[[Any], NDArray[np.float64]] | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Thin SVD of the whitened lead field, truncated to its numerical rank.
 
     Parameters
@@ -165,7 +96,7 @@ def thin_svd(Lw, whiten=None):
     step = max(2 * m, _SVD_BLOCK_BYTES // (8 * m))
     blocks = [slice(start, min(start + step, n)) for start in range(0, n, step)]
 
-    def factor(rows):
+    def factor(rows: slice) -> tuple[Any, Any, NDArray[np.float64]]:
         block = whiten(Lw[:, rows]).T  # A_i, Fortran-ordered as LAPACK uses it
         block = block.copy(order="F") if np.shares_memory(block, Lw) else block
         block = np.asfortranarray(block)
@@ -184,7 +115,7 @@ def thin_svd(Lw, whiten=None):
     offsets = np.cumsum([0] + [min(m, rows.stop - rows.start) for rows in blocks])
     V = np.empty((n, rank))
 
-    def fill(i):
+    def fill(i: int) -> None:
         reflectors, T, _ = factors[i]
         _apply_q(reflectors, T, B[offsets[i] : offsets[i + 1]].T, out=V[blocks[i]].T)
 
@@ -201,14 +132,19 @@ def thin_svd(Lw, whiten=None):
     return U, s, V
 
 
-def _qr(A, overwrite=False):
+def _qr(A: NDArray[np.float64], overwrite: bool = False) -> tuple[Any, Any]:
     """QR of ``A`` (k, m) as LAPACK's reflectors and compact WY factor (geqrt); with
     ``overwrite`` the reflectors take the place of a Fortran-ordered ``A``."""
     reflectors, T, _ = lapack.dgeqrt(min(_QR_PANEL, *A.shape), A, overwrite_a=overwrite)
     return reflectors, T
 
 
-def _apply_q(reflectors, T, Ct, out=None):
+def _apply_q(
+    reflectors: NDArray[np.float64],
+    T: NDArray[np.float64],
+    Ct: NDArray[np.float64],
+    out: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
     """``(Q [C; 0])^T`` for the Q of :func:`_qr`, from ``Ct = C^T`` (p, <= k): (p, k).
 
     Written into ``out`` (p, k) when given; it must be Fortran-ordered, as the transpose of
@@ -226,12 +162,19 @@ def _apply_q(reflectors, T, Ct, out=None):
     return out
 
 
-def log_likelihood(quadratic, log_det_S, rho_sq, log_det_C, n_channels, n_times):
+def log_likelihood(
+    quadratic: ArrayLike,
+    log_det_S: ArrayLike,
+    rho_sq: float,
+    log_det_C: float,
+    n_channels: int,
+    n_times: int,
+) -> Any:
     """The innovation log-likelihood (docs/model.md §2) from the recursions' terms.
 
     ``sum_t log N(e~_t; 0, S~_t)``: ``-(T m log 2 pi + sum log det S~ + quadratic form of the
     innovations on span U + ||data off span U||^2) / 2``, minus ``T log|det C|`` for the
-    whitening.
+    whitening, with ``T`` the observed steps (``n_times``; the sums are theirs only).
     """
     T = n_times
     return -0.5 * (T * n_channels * _LOG_2PI + log_det_S + quadratic + rho_sq) - T * log_det_C
@@ -261,36 +204,42 @@ class SpectralBasis:
     (2,)
     """
 
-    def __init__(self, L, R):
+    def __init__(self, L: NDArray[np.float64], R: NDArray[np.float64]) -> None:
         self.n_channels, self.n_sources = L.shape
         self.whiten, self.log_det_C = whitener(R)
         self.U, self.s, self.V = thin_svd(L, self.whiten)
 
     @property
-    def rank(self):
+    def rank(self) -> int:
         """int : Numerical rank of the whitened lead field."""
         return len(self.s)
 
-    def project(self, Y):
+    def project(self, Y: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
         """Whitened data in the basis: ``eta = U^T y~`` (T, r) and ``||y~ - U eta||^2``.
 
-        A few thousand steps at a time: no temporary of the data's size.
+        A few thousand steps at a time: no temporary of the data's size. A missing step
+        (a column of NaN) gives zeros: it has no measurement to project.
         """
         eta = np.empty((Y.shape[1], self.rank))
         rho_sq = 0.0
         for start in range(0, Y.shape[1], _PROJECT_STEPS):
             steps = slice(start, start + _PROJECT_STEPS)
-            Yw = self.whiten(Y[:, steps])
+            block = Y[:, steps]
+            gaps = np.isnan(block[0])
+            Yw = self.whiten(np.where(gaps, 0.0, block) if gaps.any() else block)
             np.matmul(Yw.T, self.U, out=eta[steps])
             rho_sq += float(np.sum((Yw - self.U @ eta[steps].T) ** 2))
         return eta, rho_sq
 
-    def log_likelihood(self, Y, theta0, q, transition=1.0):
+    def log_likelihood(
+        self, Y: NDArray[np.float64], theta0: ArrayLike, q: ArrayLike, transition: float = 1.0
+    ) -> Any:
         """The innovation log-likelihood of ``Y`` for each of many priors, no (n, T) array.
 
         Parameters
         ----------
         Y : ndarray, shape (n_channels, n_times)
+            A column of NaN is a missing step (docs/model.md §2).
         theta0, q : float or array_like, shape (K,)
             Isotropic priors ``P_0 = theta0 I``, ``Q = q I``, K pairs (broadcast).
         transition : float
@@ -303,18 +252,21 @@ class SpectralBasis:
         """
         return self._sums(Y, theta0, q, transition)[0]
 
-    def residual_energy(self, Y, theta0, q, transition=1.0):
+    def residual_energy(
+        self, Y: NDArray[np.float64], theta0: ArrayLike, q: ArrayLike, transition: float = 1.0
+    ) -> Any:
         r"""The whitened residual of the filtered means, ``sum_t ||C^{-1} (y_t - L x_{t|t})||^2``.
 
         For each of many priors, with no (n, T) array: on span U the residual is the
         innovation divided by ``s^2 p_{t|t-1} + 1``
-        (:meth:`.Recursions.filter_means`); off span U it is
-        the data's own part there, whatever the priors. The discrepancy principle
-        (docs/model.md §4) sets it to ``n_channels * n_times``.
+        (``Recursions.filter_means``); off span U it is the data's own part there,
+        whatever the priors. The discrepancy principle (docs/model.md §4) sets it to
+        ``n_channels`` times the observed steps.
 
         Parameters
         ----------
         Y : ndarray, shape (n_channels, n_times)
+            A column of NaN is a missing step (docs/model.md §2), which adds nothing.
         theta0, q : float or array_like, shape (K,)
             Isotropic priors ``P_0 = theta0 I``, ``Q = q I``, K pairs (broadcast).
         transition : float
@@ -337,21 +289,29 @@ class SpectralBasis:
         """
         return self._sums(Y, theta0, q, transition)[1]
 
-    def _sums(self, Y, theta0, q, transition):
+    def _sums(
+        self, Y: NDArray[np.float64], theta0: ArrayLike, q: ArrayLike, transition: float
+    ) -> tuple[Any, Any]:
         """The log-likelihood and the filtered residual's energy, (K,) each or floats."""
         eta, rho_sq = self.project(Y)
+        missing = np.isnan(Y[0])
         theta0, q = np.broadcast_arrays(np.asarray(theta0, float), np.asarray(q, float))
         flat_theta0, flat_q = theta0.ravel(), q.ravel()
         out = np.empty((2, len(flat_theta0)))
         for start in range(0, out.shape[1], _PRIORS_AT_ONCE):
             chunk = slice(start, start + _PRIORS_AT_ONCE)
             recursions = Recursions(
-                self.s, transition, flat_q[chunk], flat_theta0[chunk], len(eta)
+                self.s, transition, flat_q[chunk], flat_theta0[chunk], len(eta), missing=missing
             )
             _, quadratic, residual = recursions.filter_means(eta)
             log_det_S = recursions.log_det_innovations()
             out[0, chunk] = log_likelihood(
-                quadratic, log_det_S, rho_sq, self.log_det_C, self.n_channels, len(eta)
+                quadratic,
+                log_det_S,
+                rho_sq,
+                self.log_det_C,
+                self.n_channels,
+                recursions.n_observed,
             )
             out[1, chunk] = residual + rho_sq
         if not np.isfinite(out).all():

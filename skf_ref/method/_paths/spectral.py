@@ -3,13 +3,13 @@ r"""The exact fast path: the SKF and both smoothers in the singular basis of the
 It applies to the paper's model: ``A = a I``, ``Q = q I``, ``P_0 = theta0 I`` and a constant SPD
 noise covariance ``R``. Nothing is approximated beyond holding the covariances once they have
 settled to 1e-14 (the steady state, below); the result equals
-:mod:`skf_ref.method.paths.dense` to rounding (1e-12 relative on the tests' problems). Cost:
+``skf_ref.method._paths.dense`` to rounding (1e-12 relative on the tests' problems). Cost:
 one thin SVD, O(r) work per step, and a few (n, r) x (r, T) products, with
 ``r = rank(L) <= n_channels``; in the steady state one product a step. Memory O(n r + n T);
 no (n, n) matrix is formed. The whitening and SVD (:class:`SpectralBasis`) live in
-:mod:`skf_ref.method.paths.singular_basis`, the rank-r recursions in
-:mod:`skf_ref.method.paths.recursions`; this module prepares them once per model
-(:class:`SpectralModel`) and :mod:`skf_ref.method.paths.spectral_rows` forms the
+``skf_ref.method._paths.singular_basis``, the rank-r recursions in
+``skf_ref.method._paths.recursions``; this module prepares them once per model
+(:class:`SpectralModel`) and ``skf_ref.method._paths.spectral_rows`` forms the
 n-dimensional outputs from them.
 
 Why it equals the dense recursion, equation by equation (docs/model.md §2-3)
@@ -61,14 +61,14 @@ and, on the complement of ``U``, the part of ``y~`` that no source explains, ``r
   ``delta_T = 0``, ``delta_t = gamma_t delta_{t+1} + (gamma_t - beta_t)(chi_{t+1} - a zeta_t)``.
   So ``s = h + V delta``: one product ``V^T z``, one product ``V delta``, O(r T) recursions.
 
-**Steady state.** The covariance recursion settles (:mod:`skf_ref.method.paths.recursions`):
+**Steady state.** The covariance recursion settles (``skf_ref.method._paths.recursions``):
 from step ``steady`` on, ``p`` and with it ``omega`` and ``W_t^(alpha) = D`` are held, to a
 relative ``STEADY_RTOL`` (1e-14). Then ``z_t = (D V) u_t`` with ``u_t = p^{-1/2} xi_t``: one
 product, no power. In the paper's smoother, ``h`` obeys a scalar recursion, so for
 ``t >= steady``, where every ``z_t`` lies in span ``D V``, ``h_t = D V eta_t`` with ``eta``
 the same recursion on ``u`` (rank r): ``s_t = D V eta_t + V delta_t``, one product of width
 2r, and ``zeta_t = (V^T D V) u_t``. Only the steps before ``steady`` need ``z`` of every row
-first (:mod:`skf_ref.method.paths.spectral_rows`). The scalar ``beta_t`` never settles when
+first (``skf_ref.method._paths.spectral_rows``). The scalar ``beta_t`` never settles when
 ``a = 1`` (``c`` grows like ``t q``); it only enters these rank-r recursions.
 
 The r x T recursions are kept time-major, (T, r). An output held in memory is time-major
@@ -77,16 +77,18 @@ along whole contiguous rows. Streamed blocks of rows are computed source-major, 
 they are written.
 """
 
-import functools
-
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..._utils.checks import InputError
-from ..result import Reconstruction
-from ..standardization import overflow_cause
+from .._model import StateSpaceModel
+from .._result import Reconstruction
+from .._settings import check_gaps
+from .._standardization import overflow_cause
 from .recursions import Recursions
 from .singular_basis import SpectralBasis, log_likelihood
-from .spectral_rows import NAMES, SpectralRows, Standardization
+from .spectral_rows import SpectralRows
+from .weights import Standardization
 
 __all__ = ["SpectralModel", "run"]
 
@@ -103,7 +105,7 @@ class SpectralModel:
     only for the outputs needed (each is computed on first access; ``z`` is one product
     and, before the steady state, one multiplication by the weights), and keep the
     exponent: from the second data set on, the weights of the steps before the steady state
-    are kept per exponent (up to :data:`~.spectral_rows.CACHE_BYTES`). ``smoother=None``
+    are kept per exponent (up to 256 MiB of them). ``smoother=None``
     and ``"rts-state"`` cost the same; ``"rts-standardized"`` adds, before the steady
     state, two products (the projection ``V^T z`` and the correction ``V delta``) and a
     backward pass, and after it a second product of width r.
@@ -119,7 +121,7 @@ class SpectralModel:
 
     Examples
     --------
-    >>> from skf_ref.method.model import StateSpaceModel
+    >>> from skf_ref.method import StateSpaceModel
     >>> rng = np.random.default_rng(0)
     >>> model = StateSpaceModel.create(rng.standard_normal((6, 9)), noise_std=1.0,
     ...                                theta0=1.0, q=0.1)
@@ -130,70 +132,105 @@ class SpectralModel:
     ((9, 5), (9, 5), 6)
     """
 
-    def __init__(self, model, n_times, basis=None):
+    def __init__(
+        self, model: StateSpaceModel, n_times: int, basis: SpectralBasis | None = None
+    ) -> None:
         problem = model.isotropic_problem()
         if problem:
             raise InputError(
                 f"the spectral path needs A = a I, Q = q I, P_0 = theta0 I: {problem}"
             )
-        a, q, theta0 = (model.scalar(name) for name in ("transition", "q", "theta0"))
+        a = model.scalar("transition")
+        assert a is not None  # isotropic
         self.model, self.a, self.n_times = model, a, n_times
         self.n_channels, self.n_sources = model.L.shape
         self.basis = SpectralBasis(model.L, model.R) if basis is None else basis
         self.U, self.s, self.V = self.basis.U, self.basis.s, self.basis.V
-        self.recursions = Recursions(self.s, a, q, theta0, n_times)
-        self._log_det_S = self.recursions.log_det_innovations()
-        self._standardizations = {}
-        self._check_range()
+        self.recursions = self._recursions(None)
+        self._standardizations: dict[float, Standardization] = {}
+        self._gaps: tuple[bytes, Recursions, dict[float, Standardization]] | None = None
 
-    def _check_range(self):
-        """Refuse, before any output, a model whose covariances leave double precision."""
-        p_pred = self.recursions.p_pred
-        if not (np.isfinite(p_pred).all() and np.isfinite(self._log_det_S)):
+    def _recursions(self, missing: NDArray[np.bool_] | None) -> Recursions:
+        """The covariance recursion over ``n_times`` steps with these missing steps,
+        refused before any output if it leaves double precision."""
+        q, theta0 = self.model.scalar("q"), self.model.scalar("theta0")
+        assert q is not None and theta0 is not None  # isotropic (checked by __init__)
+        recursions = Recursions(self.s, self.a, q, theta0, self.n_times, missing=missing)
+        log_det_S = recursions.log_det_innovations()
+        if not (np.isfinite(recursions.p_pred).all() and np.isfinite(log_det_S)):
             raise InputError(
-                f"the predicted covariance overflows: theta0={self.model.theta0:g}, "
-                f"q={self.model.q:g} and transition={self.a:g} are out of range at this lead "
-                f"field's scale (largest whitened singular value {self.s[0]:.3g}); rescale L, "
-                "the noise or the priors"
+                f"the predicted covariance overflows: theta0={theta0:g}, q={q:g} and "
+                f"transition={self.a:g} are out of range at this lead field's scale (largest "
+                f"whitened singular value {self.s[0]:.3g}); rescale L, the noise or the priors"
             )
-        omega = self.recursions.omega
-        if not omega.min() > 0:
-            raise InputError(overflow_cause(omega.min(), 0.0))
+        smallest = np.nanmin(recursions.omega)
+        if not smallest > 0:
+            raise InputError(overflow_cause(smallest, 0.0))
+        return recursions
 
     @property
-    def steady(self):
+    def steady(self) -> int:
         """int : The first step of the steady state (``n_times`` if the recording ends
-        before it; :mod:`skf_ref.method.paths.recursions`)."""
+        before it; ``skf_ref.method._paths.recursions``), without missing steps."""
         return self.recursions.steady
 
     @property
-    def rank(self):
+    def rank(self) -> int:
         """int : Numerical rank of the whitened lead field."""
         return len(self.s)
 
-    def standardization(self, exponent):
+    def standardization(
+        self, exponent: float, missing: NDArray[np.bool_] | None = None
+    ) -> Standardization:
         """The weights ``W_t^(alpha)`` of every source and step at ``exponent``, kept.
+
+        Parameters
+        ----------
+        exponent : float
+        missing : ndarray of bool, shape (n_times,), optional
+            The missing steps of the data (default none). The weights of the last pattern
+            of missing steps are kept beside those of data without any.
 
         Returns
         -------
         Standardization
         """
+        recursions, kept = self._prepared(missing)
         key = float(exponent)
-        if key not in self._standardizations:
-            self._standardizations[key] = Standardization(
-                self.V, self.recursions.omega, self.steady, self.n_times, key
+        if key not in kept:
+            kept[key] = Standardization(
+                self.V, recursions.omega, recursions.steady, self.n_times, key
             )
-        return self._standardizations[key]
+        return kept[key]
 
-    def apply(self, Y, exponent, smoother, memory_limit=None):
-        """Filter and smooth data ``Y``; equal to :func:`skf_ref.method.paths.dense.run` on the
+    def _prepared(
+        self, missing: NDArray[np.bool_] | None
+    ) -> tuple[Recursions, dict[float, Standardization]]:
+        """The recursion and the kept standardizations of data with these missing steps."""
+        if missing is None or not missing.any():
+            return self.recursions, self._standardizations
+        key = np.packbits(missing).tobytes()
+        if self._gaps is None or self._gaps[0] != key:
+            self._gaps = (key, self._recursions(missing), {})
+        return self._gaps[1], self._gaps[2]
+
+    def apply(
+        self,
+        Y: ArrayLike,
+        exponent: float,
+        smoother: str | None,
+        memory_limit: float | None = None,
+    ) -> Reconstruction:
+        """Filter and smooth data ``Y``; equal to ``skf_ref.method._paths.dense.run`` on the
         model.
 
         Parameters
         ----------
-        Y : ndarray, shape (n_channels, n_times)
+        Y : array_like, shape (n_channels, n_times)
+            A column of NaN is a missing step (docs/model.md §2).
         exponent : float
         smoother : {None, "rts-standardized", "rts-state"}
+            ``"rts-standardized"`` is refused over missing steps.
         memory_limit : float, optional
             Bytes an (n, T) output asked for in memory may take (default half the memory
             available then); streamed outputs need only a few blocks.
@@ -204,17 +241,34 @@ class SpectralModel:
             Its arrays are computed on first access.
         """
         m, T = self.n_channels, self.n_times
-        Y = self.model.check_data(Y)
-        if Y.shape != (m, T):
-            raise InputError(f"Y must have shape ({m}, {T}), got {Y.shape}")
-        eta, rho_sq = self.basis.project(Y)  # U^T y~ (T, r) and the data outside span U
-        xi, quadratic, _ = self.recursions.filter_means(eta)
+        data = self.model.check_data(Y)
+        if data.shape != (m, T):
+            raise InputError(f"Y must have shape ({m}, {T}), got {data.shape}")
+        missing = np.isnan(data[0])  # check_data refused columns NaN in part
+        check_gaps(smoother, missing)
+        recursions, _ = self._prepared(missing)
+        eta, rho_sq = self.basis.project(data)  # U^T y~ (T, r) and the data outside span U
+        xi, quadratic, _ = recursions.filter_means(eta)
         del eta
-        total = log_likelihood(quadratic, self._log_det_S, rho_sq, self.basis.log_det_C, m, T)
-        rows = SpectralRows(self, xi, exponent, smoother, memory_limit=memory_limit)
+        total = log_likelihood(
+            quadratic,
+            recursions.log_det_innovations(),
+            rho_sq,
+            self.basis.log_det_C,
+            m,
+            recursions.n_observed,
+        )
+        rows = SpectralRows(
+            self.V,
+            self.a,
+            recursions,
+            self.standardization(exponent, missing),
+            xi,
+            smoother,
+            memory_limit=memory_limit,
+        )
         return Reconstruction(
-            **{name: functools.partial(_transposed, rows, name) for name in NAMES},
-            log_likelihood=total,
+            log_likelihood=float(total),
             n_sources=self.n_sources,
             n_times=T,
             exponent=exponent,
@@ -223,18 +277,20 @@ class SpectralModel:
             theta0=self.model.theta0,
             q=self.model.q,
             transition=self.model.transition,
-            diagnose=lambda: overflow_cause(rows.min_raw_weight(), exponent),
-            rows=rows,
+            missing=missing,
+            lazy=rows,
         )
 
 
-def _transposed(rows, name):
-    return rows.array(name).T
-
-
-def run(model, Y, exponent, smoother, memory_limit=None):
+def run(
+    model: StateSpaceModel,
+    Y: NDArray[np.float64],
+    exponent: float,
+    smoother: str | None,
+    memory_limit: float | None = None,
+) -> Reconstruction:
     """Filter and optionally smooth in the singular basis; equal to
-    :func:`skf_ref.method.paths.dense.run`.
+    ``skf_ref.method._paths.dense.run``.
 
     Parameters
     ----------

@@ -7,12 +7,17 @@ filterpy's own ``alpha`` (fading memory) keeps its meaning; the standardization 
 ``exponent``.
 """
 
+from typing import Any
+
 import numpy as np
 from filterpy.kalman import KalmanFilter
+from numpy.typing import ArrayLike, NDArray
 
 from ..._utils.checks import check_int, check_real
-from ..result import Reconstruction
-from ..standardization import inverse_sqrt, raw_weights, standardize
+from .._model import StateSpaceModel
+from .._result import Reconstruction
+from .._standardization import inverse_sqrt, raw_weights, restandardize, standardize
+from .dense import result
 
 __all__ = ["StandardizedKalmanFilter", "run"]
 
@@ -36,9 +41,7 @@ class StandardizedKalmanFilter(KalmanFilter):
     raw_weights : ndarray, shape (dim_x,)
         ``w_t = diag(P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2})`` of the last update.
     x_standardized : ndarray, shape (dim_x,)
-        Standardized estimate ``z_{t|t}`` of §2.2 eq. (6) after the last update. Also
-        available as ``x_std``, the name the first release gave it (not a standard
-        deviation).
+        Standardized estimate ``z_{t|t}`` of §2.2 eq. (6) after the last update.
     P_prior_inv_sqrt : ndarray, shape (dim_x, dim_x)
         ``P_{t|t-1}^{-1/2}`` used by the last update.
 
@@ -56,7 +59,7 @@ class StandardizedKalmanFilter(KalmanFilter):
     True
     """
 
-    def __init__(self, dim_x, dim_z, exponent=0.5):
+    def __init__(self, dim_x: int, dim_z: int, exponent: float = 0.5) -> None:
         super().__init__(check_int("dim_x", dim_x), check_int("dim_z", dim_z))
         self.exponent = check_real("exponent", exponent, nonnegative=True)
         self.weights = np.full(dim_x, np.nan)
@@ -64,12 +67,9 @@ class StandardizedKalmanFilter(KalmanFilter):
         self.raw_weights = np.full(dim_x, np.nan)
         self.P_prior_inv_sqrt = np.full((dim_x, dim_x), np.nan)
 
-    @property
-    def x_std(self):
-        """ndarray, shape (dim_x,) : The standardized estimate; see ``x_standardized``."""
-        return self.x_standardized
-
-    def update(self, z, R=None, H=None):
+    def update(
+        self, z: ArrayLike | None, R: ArrayLike | None = None, H: ArrayLike | None = None
+    ) -> None:
         """filterpy's update (§2.2 eq. 5), then the standardization (§2.2 eqs. 6-7).
 
         With ``z=None`` (a missing measurement) filterpy skips the update; the weights and
@@ -90,8 +90,12 @@ class StandardizedKalmanFilter(KalmanFilter):
         )
 
 
-def run(model, Y, exponent, smoother):
+def run(
+    model: StateSpaceModel, Y: NDArray[np.float64], exponent: float, smoother: str | None
+) -> Reconstruction:
     """Run the filterpy subclass over the data, then filterpy's ``rts_smoother`` method.
+
+    A missing step (a column of NaN) is filterpy's ``update(None)``: the prediction stands.
 
     Parameters
     ----------
@@ -99,6 +103,7 @@ def run(model, Y, exponent, smoother):
     Y : ndarray, shape (n_channels, n_times)
     exponent : float
     smoother : {None, "rts-standardized", "rts-state"}
+        ``"rts-standardized"`` only without missing steps (the caller checks).
 
     Returns
     -------
@@ -108,26 +113,26 @@ def run(model, Y, exponent, smoother):
     kf = StandardizedKalmanFilter(dim_x=n, dim_z=m, exponent=exponent)
     kf.x, kf.P, kf.F = np.zeros((n, 1)), model.matrix("theta0").copy(), model.matrix("transition")
     kf.Q, kf.H, kf.R = model.matrix("q"), model.L, model.R
-    f = {key: np.empty((T, n)) for key in ("x_filt", "z", "w", "weights")}
+    f: dict[str, Any] = {key: np.empty((T, n)) for key in ("x_filt", "z", "w", "weights")}
     P_filt, f["P_pred_inv_sqrt"] = np.empty((T, n, n)), np.empty((T, n, n))
+    f["missing"] = np.isnan(Y[0])
     log_likelihood = 0.0
     for t in range(T):
         kf.predict()
         try:
-            kf.update(Y[:, t])
-            log_likelihood += kf.log_likelihood
+            kf.update(None if f["missing"][t] else Y[:, t])
+            log_likelihood += 0.0 if f["missing"][t] else kf.log_likelihood
         except (np.linalg.LinAlgError, ValueError) as err:  # filterpy's S^-1, scipy's logpdf
             raise np.linalg.LinAlgError(f"at step {t + 1}: filterpy's update: {err}") from err
         f["x_filt"][t], f["z"][t] = kf.x.ravel(), kf.x_standardized
         f["w"][t], f["weights"][t] = kf.raw_weights, kf.weights
         P_filt[t], f["P_pred_inv_sqrt"][t] = kf.P, kf.P_prior_inv_sqrt
     f["log_likelihood"] = log_likelihood
-    # both smoothers through filterpy's rts_smoother method, with the P_{t|t}
-    return Reconstruction.from_filter(
-        f,
-        smoother,
-        lambda sequence: kf.rts_smoother(sequence, P_filt)[0],
-        model=model,
-        exponent=exponent,
-        method="filterpy",
-    )
+    # both smoothers by filterpy's rts_smoother method, given the P_{t|t}  (docs/model.md §3)
+    x, z = f["x_filt"], f["z"]
+    if smoother == "rts-standardized":
+        z = kf.rts_smoother(f["z"], P_filt)[0]
+    elif smoother == "rts-state":
+        x = kf.rts_smoother(f["x_filt"], P_filt)[0]
+        z = restandardize(f["w"], f["P_pred_inv_sqrt"], x, exponent)
+    return result(f, x, z, model, exponent, smoother, "filterpy")

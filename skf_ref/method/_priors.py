@@ -11,7 +11,10 @@ lie within +-300 dB, and the variances they give must be normal doubles: a reque
 that range is refused, naming the parameter, instead of returning 0 or inf.
 """
 
+from collections.abc import Callable
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._utils.checks import (
     InputError,
@@ -27,7 +30,7 @@ __all__ = ["prior_variance", "evolution_variance", "lead_field_amplitude", "prio
 CONVENTIONS = ("gain", "toolbox")
 
 
-def _variance(name, compute, formula):
+def _variance(name: str, compute: Callable[[], float], formula: str) -> float:
     """``compute()`` in double precision if it is a normal double, else an error."""
     with np.errstate(over="ignore", under="ignore"):
         value = compute()
@@ -40,7 +43,7 @@ def _variance(name, compute, formula):
     return float(value)
 
 
-def prior_variance(pm_snr_db, noise_std, amplitude, n_sources):
+def prior_variance(pm_snr_db: float, noise_std: float, amplitude: float, n_sources: int) -> float:
     """Initial prior variance ``theta0`` from the PM-SNR.
 
     Parameters
@@ -78,7 +81,7 @@ def prior_variance(pm_snr_db, noise_std, amplitude, n_sources):
     )
 
 
-def evolution_variance(ep_snr_db, theta0, n_steps):
+def evolution_variance(ep_snr_db: float, theta0: float, n_steps: int) -> float:
     """Per-step evolution (process noise) variance ``q`` from the EP-SNR, eq. (10).
 
     Parameters
@@ -109,7 +112,7 @@ def evolution_variance(ep_snr_db, theta0, n_steps):
     )
 
 
-def lead_field_amplitude(L, convention="gain"):
+def lead_field_amplitude(L: ArrayLike, convention: str = "gain") -> float:
     """Measurement amplitude of a lead field.
 
     Parameters
@@ -145,7 +148,14 @@ def lead_field_amplitude(L, convention="gain"):
     return float(np.mean(norms**-0.5) / np.sqrt(scale))
 
 
-def priors_from_snr(L, noise_std, pm_snr_db, ep_snr_db, n_steps, convention="gain"):
+def priors_from_snr(
+    L: ArrayLike,
+    noise_std: float,
+    pm_snr_db: float,
+    ep_snr_db: float,
+    n_steps: int,
+    convention: str = "gain",
+) -> tuple[float, float]:
     """``(theta0, q)`` for a lead field, noise level and the two prior SNRs.
 
     Parameters
