@@ -124,8 +124,8 @@ def compare(
     skf_ref.InputError
         If their outputs are unusable: none of the output names, a wrong shape (the
         message names the output and the shape expected), complex numbers; or if the case
-        file says it is one of the pinned suite's and is not its bytes
-        (:func:`~skf_ref.conformance.suite.check_pinned`).
+        file says it is one of the pinned suite's and is not its bytes (its sha256 is not the
+        manifest's).
 
     Examples
     --------

@@ -444,8 +444,8 @@ def write_stc(path: str | os.PathLike, stc: Any) -> list[Path]:
         ``path`` is no file name, or ``stc`` no MNE source estimate (the arguments
         swapped?).
     skf_ref.InputError
-        The format cannot hold the estimate (:func:`stc_files`), or a file's folder is
-        missing or the file a folder.
+        The format cannot hold the estimate (a vector or mixed estimate, several volumes,
+        to ``.stc``), or a file's folder is missing or the file a folder.
     """
     path = check_path("path", path)
     mne = optional("mne", "mne", "write_stc")

@@ -337,9 +337,9 @@ def stc_to_zarr(
     zarr.Group
         Open for reading: the array ``"data"`` (n_positions, n_times), or (n_positions,
         3, n_times) for ``"vector"``, one shard per block of rows in chunks of about
-        :data:`TIME_CHUNK_BYTES` along time; attributes ``vertices`` (one list per source
-        space), ``tmin``, ``tstep``, ``subject``, ``stc_class`` (MNE's class) and the
-        settings. :func:`skf_ref.read_skf_stream` reads it back as a source estimate.
+        ``TIME_CHUNK_BYTES`` (1 MiB) along time; attributes ``vertices`` (one list per
+        source space), ``tmin``, ``tstep``, ``subject``, ``stc_class`` (MNE's class) and
+        the settings. :func:`skf_ref.read_skf_stream` reads it back as a source estimate.
     """
     zarr = optional("zarr", "zarr", "stc_to_zarr")
     _check_reconstruction(reconstruction, path)
