@@ -443,6 +443,7 @@ def test_an_interruption_swallowed_on_its_way_still_ends_with_130(tmp_path):
     assert np.load(tmp_path / "o.npz")["z"].shape == (20, 5)
 
 
+@pytest.mark.slow  # a sweep on two workers until rows are written: 20-30 s
 def test_killed_sweep_leaves_no_worker_running(tmp_path):
     out = tmp_path / "r.csv"
     command = [sys.executable, "-m", "skf_ref.cli", "sweep", "--out", str(out), "--jobs", "2"]

@@ -173,6 +173,7 @@ def test_console_script_entry_point_runs_without_traceback(tmp_path):
     assert "Traceback" not in result.stderr and result.stderr.count("\n") == 1
 
 
+@pytest.mark.slow  # a sweep on two workers, interrupted, then resumed: 20-30 s
 def test_ctrl_c_stops_a_parallel_sweep_in_one_line_and_it_resumes(tmp_path):
     # Ctrl-C as a terminal sends it, to the sweep and its two workers, once rows are written:
     # one line (no joblib note, no worker's traceback), status 130, every finished row kept
