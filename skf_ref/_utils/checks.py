@@ -346,9 +346,9 @@ def check_names(name: str, names: Iterable[object], unit: str = "position") -> l
     ...
     skf_ref._utils.checks.InputError: ch_names holds 'Fp1' twice (positions 1 and 3): ...
     """
-    names = [str(label).strip() for label in names]
-    seen = {}
-    for position, label in enumerate(names, start=1):
+    labels = [str(label).strip() for label in names]
+    seen: dict[str, int] = {}
+    for position, label in enumerate(labels, start=1):
         if not label:
             raise InputError(f"{name} has an empty name at {unit} {position}")
         if label in seen:
@@ -357,4 +357,4 @@ def check_names(name: str, names: Iterable[object], unit: str = "position") -> l
                 "channel needs a name of its own"
             )
         seen[label] = position
-    return names
+    return labels

@@ -12,31 +12,33 @@ load is an interruption like any other. Its names (``__all__``) are the public A
 subcommands' modules are their implementation.
 """
 
-from __future__ import annotations
-
 import os
 import re
 import signal
 import sys
-from typing import TYPE_CHECKING, NoReturn
 
+TYPE_CHECKING = False  # typing.TYPE_CHECKING, without importing typing (mypy reads it so)
 if TYPE_CHECKING:
     import argparse
+    from collections.abc import Callable, Sequence
+    from types import FrameType
+    from typing import NoReturn
 
 __all__ = ["build_parser", "console", "main"]
 
 _INTERRUPTED = "skf-ref: interrupted; files already written are complete"
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser() -> "argparse.ArgumentParser":
     """The ``skf-ref`` argument parser.
 
     Returns
     -------
     argparse.ArgumentParser
+        With a subcommand per command (``args.run(args)`` runs it).
     """
     from ..version import __version__
-    from . import compare, conformance, demo, reconstruct, sweep
+    from . import compare, conformance, demo, reconstruct, sweep, sys_info
     from ._args import Parser
 
     parser = Parser(
@@ -55,14 +57,15 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_parser(subparsers)
     conformance.add_parser(subparsers)
     compare.add_parser(subparsers)
+    sys_info.add_parser(subparsers)
     return parser
 
 
-def _debug_asked(argv):
+def _debug_asked(argv: list[str]) -> bool:
     return "--debug" in (argv[: argv.index("--")] if "--" in argv else argv)
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: "Sequence[str] | None" = None) -> int:
     """Entry point of ``skf-ref``; returns the exit status.
 
     Parameters
@@ -105,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _run_showing_warnings_on_success(args):
+def _run_showing_warnings_on_success(args: "argparse.Namespace") -> None:
     """``args.run(args)``; the warnings it raised are shown after it, only if it succeeds:
     an error is one line, with no third-party text around it."""
     import warnings
@@ -118,10 +121,10 @@ def _run_showing_warnings_on_success(args):
 
 #: Interruptions seen while the command ran (one may have been swallowed on its way: a
 #: KeyboardInterrupt raised inside a finalizer is only printed, "Exception ignored ...").
-_SEEN: list[int] = []
+_SEEN: "list[int]" = []
 
 
-def _interrupt(signum, frame):
+def _interrupt(signum: int, frame: "FrameType | None") -> "NoReturn":
     _SEEN.append(signum)
     raise KeyboardInterrupt
 
@@ -129,24 +132,30 @@ def _interrupt(signum, frame):
 _INTERRUPTED_LINE = f"{_INTERRUPTED}\n".encode()
 
 
-def _end_now(signum=None, frame=None, _write=os.write, _exit=os._exit, _line=_INTERRUPTED_LINE):
+def _end_now(
+    signum: "int | None" = None,
+    frame: "FrameType | None" = None,
+    _write: "Callable[[int, bytes], int]" = os.write,
+    _exit: "Callable[[int], NoReturn]" = os._exit,
+    _line: bytes = _INTERRUPTED_LINE,
+) -> None:
     """Ctrl-C once the command is done: one line and status 130, at once. Everything it
     uses is bound here, so that it works while the interpreter takes modules apart."""
     _write(2, _line)
     _exit(130)
 
 
-def _quiet_interrupts(hook):
+def _quiet_interrupts(hook: "Callable") -> "Callable":
     """``sys.unraisablehook`` that drops a KeyboardInterrupt: it is reported by the status."""
 
-    def unraisable(info):
+    def unraisable(info: "sys.UnraisableHookArgs") -> None:
         if not isinstance(info.exc_value, KeyboardInterrupt):
             hook(info)
 
     return unraisable
 
 
-def _save_coverage():
+def _save_coverage() -> None:
     """Save a coverage measurement of this process (a test run's), if one is running: its
     own exit handler, registered before :func:`_exit_after_handlers`, never runs."""
     coverage = sys.modules.get("coverage")
@@ -156,7 +165,9 @@ def _save_coverage():
         current.save()
 
 
-def _exit_after_handlers(status, _exit=os._exit):
+def _exit_after_handlers(
+    status: "list[int]", _exit: "Callable[[int], NoReturn]" = os._exit
+) -> None:
     """The last exit handler (registered first): flush and end with ``status[0]``, before
     the interpreter resets its signal handlers (a Ctrl-C then would kill the process
     without a word) or turns an interruption it saw into a signal of its own."""
@@ -172,7 +183,7 @@ def _exit_after_handlers(status, _exit=os._exit):
     _exit(status[0])
 
 
-def console() -> NoReturn:
+def console() -> "NoReturn":
     """The ``skf-ref`` console script: :func:`main`, then exit with its status.
 
     Ctrl-C at any moment ends with one line and status 130: while the command runs (it
@@ -200,7 +211,7 @@ def console() -> NoReturn:
     sys.exit(status[0])
 
 
-def _one_line(err):
+def _one_line(err: BaseException) -> str:
     text = str(err) or type(err).__name__
     if isinstance(err, OSError) and err.filename is not None and str(err.filename) not in text:
         text = f"{text}: {err.filename}"

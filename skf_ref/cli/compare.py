@@ -32,7 +32,13 @@ case file).
 
 
 def add_parser(subparsers: Any) -> None:
-    """Add ``compare`` to the ``skf-ref`` subcommands."""
+    """Add ``compare`` to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     parser = subparsers.add_parser(
         "compare",
         help="check your SKF's outputs against a conformance case and name the likely mistake",
@@ -55,7 +61,18 @@ def add_parser(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> Comparison:
-    """Run ``skf-ref compare``: print the report; exit status 1 when something disagrees."""
+    """Run ``skf-ref compare``: print the report; exit status 1 when something disagrees.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    skf_ref.conformance.compare.Comparison
+        The comparison (when every output agrees: else ``SystemExit(1)``).
+    """
     from .._utils.atomic_files import atomic_path, check_output_path
     from ..conformance.compare import compare
 

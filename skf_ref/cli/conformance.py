@@ -28,7 +28,13 @@ docs/conformance.md describes the files.
 
 
 def add_parser(subparsers: Any) -> None:
-    """Add ``conformance`` (and its action ``export``) to the ``skf-ref`` subcommands."""
+    """Add ``conformance`` (and its action ``export``) to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     parser = subparsers.add_parser(
         "conformance",
         help="conformance cases to check your own SKF against",
@@ -59,7 +65,18 @@ def add_parser(subparsers: Any) -> None:
 
 
 def run_export(args: argparse.Namespace) -> list[Path]:
-    """Run ``skf-ref conformance export``; returns the files written."""
+    """Run ``skf-ref conformance export``: write the suite's cases and runners.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+    """
     import warnings
 
     from ..conformance import CONFORMANCE_VERSION, export, manifest

@@ -6,11 +6,14 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .._utils.checks import InputError
 from ..method import RECOMMENDED_SETTING
 from ._args import add_skf_options, positive, report_tuning
+
+if TYPE_CHECKING:
+    from ..method import Reconstruction
 
 __all__ = ["add_parser", "run"]
 
@@ -44,7 +47,13 @@ def _output(text: str) -> Path:
 
 
 def add_parser(subparsers: Any) -> None:
-    """Add ``reconstruct`` to the ``skf-ref`` subcommands."""
+    """Add ``reconstruct`` to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     parser = subparsers.add_parser(
         "reconstruct",
         help="the SKF on your own data: MNE files or arrays in, a source estimate out",
@@ -394,8 +403,19 @@ def _array_noise(args, recording, Y):
     return {"noise_cov": cov.data[np.ix_(index, index)]}
 
 
-def run(args: argparse.Namespace) -> Any:
-    """Run ``skf-ref reconstruct``; returns the reconstruction."""
+def run(args: argparse.Namespace) -> Reconstruction:
+    """Run ``skf-ref reconstruct``: read the inputs, reconstruct, write the outputs.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    skf_ref.Reconstruction
+        The reconstruction.
+    """
     import numpy as np
 
     route = _route(args)

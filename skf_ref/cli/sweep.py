@@ -6,26 +6,37 @@ import argparse
 import signal
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from .._utils.checks import InputError
 from ..study.sizes import DEFAULT_POSITIONS, SCENARIO_MIN_POSITIONS
-from ._args import db, integer, nonnegative
+from ._args import Parser, db, integer, nonnegative
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import pandas as pd
 
 __all__ = ["add_parser", "run"]
 
 _GRID_AXES = ("snr_db", "ep_snr_db", "pm_snr_db", "exponent", "smoother")
 
 
-def _results_file(text):
+def _results_file(text: str) -> Path:
     path = Path(text)
     if path.suffix not in (".csv", ".parquet"):
         raise argparse.ArgumentTypeError(f"must end in .csv or .parquet, got {text!r}")
     return path
 
 
-def add_parser(subparsers: Any) -> None:
-    """Add ``sweep`` to the ``skf-ref`` subcommands."""
+def add_parser(subparsers: argparse._SubParsersAction[Parser]) -> None:
+    """Add ``sweep`` to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     from ..study.sweep import paper_grid
 
     paper = paper_grid(seeds=10)
@@ -79,13 +90,15 @@ def add_parser(subparsers: Any) -> None:
     sweep.set_defaults(run=run)
 
 
-def _ignore_interrupts():
+def _ignore_interrupts() -> None:
     """A worker's initializer: Ctrl-C (sent to every process of the terminal's group) is
     the parent's to handle; it stops the workers itself, and they print nothing."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _run_sweep(args, grid, run_sweep, torn_line):
+def _run_sweep(
+    args: argparse.Namespace, grid: dict, run_sweep: Callable, torn_line: type[Warning]
+) -> pd.DataFrame:
     """run_sweep, its workers deaf to Ctrl-C; on an interruption one line, then exit 130.
 
     Only the sweep's own notes (a torn last line cut off) are printed, before anything
@@ -129,8 +142,19 @@ def _run_sweep(args, grid, run_sweep, torn_line):
     return table
 
 
-def run(args: argparse.Namespace) -> Any:
-    """Run ``skf-ref sweep``; returns the results table."""
+def run(args: argparse.Namespace) -> pd.DataFrame:
+    """Run ``skf-ref sweep``: the grid's runs not yet in the results file.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Every row of the results file (:func:`skf_ref.study.sweep.run_sweep`).
+    """
     from .._utils.atomic_files import check_output_path
     from ..study.head import check_montage
     from ..study.sweep import TornLineWarning, paper_grid, run_sweep

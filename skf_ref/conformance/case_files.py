@@ -8,6 +8,7 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .._utils.atomic_files import atomic_path, check_output_path
 from .._utils.checks import InputError, check_array, check_instance
@@ -120,7 +121,7 @@ def read_case(path: str | os.PathLike) -> Case:
         inputs["smoother"] = check_smoother(_text(variables, "smoother", path))
     except InputError as err:
         raise InputError(f"{path}: {err}") from None
-    expected = {
+    expected: dict[str, NDArray[np.float64] | float] = {
         name: readonly(check_array(f"{path}: {name}", variables[name], (n, T)))
         for name in OUTPUTS
         if name != "log_likelihood"

@@ -45,7 +45,7 @@ def _read_csv(path):
     if not lines or [cell.strip().lower() for cell in lines[0]] != _CSV_HEADER:
         got = ",".join(lines[0]) if lines else "an empty file"
         raise InputError(f"{path}: the first line must be output,source,step,value, got {got}")
-    cells = {}
+    cells: dict[str, dict[tuple, float]] = {}
     for number, line in enumerate(lines[1:], start=2):
         if not any(cell.strip() for cell in line):
             continue

@@ -203,7 +203,7 @@ def _header_times(texts: list[str], sfreq: float | None, path: Path) -> np.ndarr
     return values
 
 
-def _first_row_kind(texts: list[str], named: str | None, sfreq: float | None, path: Path):
+def _first_row_kind(texts: list[str], named: str | None, sfreq: float | None, path: Path) -> str:
     """Whether a first row of numbers with no header corner is "times", "labels" (column
     numbers) or a "channel"; refused when the evidence does not tell."""
     values = _row_values(texts)
@@ -259,7 +259,9 @@ def _label_column(first_column: list[str], path: Path) -> bool:
     return False
 
 
-def _layout(first: list[str], first_column: list[str], n_fields: int, sfreq, path):
+def _layout(
+    first: list[str], first_column: list[str], n_fields: int, sfreq: float | None, path: Path
+) -> tuple[bool, bool, np.ndarray | None]:
     """``(header, label_column, times)``: whether the first line is a header, whether the
     first column is labels, and the times (or None), read off the content."""
     body = first_column[1:]

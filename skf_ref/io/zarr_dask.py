@@ -386,7 +386,8 @@ def _write_behind(blocks, write, limit=WRITE_BEHIND_BYTES):
     """``write(rows, block)`` for each of ``blocks`` on a writer thread, so that the disk
     writes while the next blocks are computed; at most ``limit`` bytes wait to be written.
     Returns when every block is written; an interruption cancels the writes not started."""
-    pending, waiting = collections.deque(), 0
+    pending: collections.deque = collections.deque()
+    waiting = 0
     with ThreadPoolExecutor(1) as writer:
         try:
             for rows, block in blocks:
