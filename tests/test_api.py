@@ -227,6 +227,7 @@ IMPLEMENTATION = {
     "skf_ref.version",
     *(f"skf_ref.io.{name}" for name in ("apply", "channels", "files", "noise_cov")),
     *(f"skf_ref.io.{name}" for name in ("operator", "raw", "stc", "tables", "zarr_dask")),
+    "skf_ref.io.variables",
     *(f"skf_ref.io.{name}" for name in ("make_operator", "operator_file", "stream")),
     *(f"skf_ref.conformance.{name}" for name in ("case_files", "cases", "compare", "mistakes")),
     *(f"skf_ref.conformance.{name}" for name in ("precision", "suite", "their_outputs")),

@@ -112,10 +112,12 @@ def run(args: argparse.Namespace) -> Demo:
         What :func:`skf_ref.study.demo.run_demo` computed.
     """
     from ..study.demo import run_demo
+    from ..study.head import check_montage
 
     if args.head == "sphere" and args.mne_testing_data is not None:
         raise InputError("--mne-testing-data: not used with --head sphere; drop one")
     try:
+        check_montage(args.montage)  # before the first progress line
         demo = run_demo(
             args.out,
             snr_db=args.snr_db,

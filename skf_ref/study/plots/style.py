@@ -34,7 +34,8 @@ def figure(width: float, height: float) -> "Figure":
 def finish(fig: "Figure", path: str | os.PathLike | None) -> "Figure":
     """Save a figure if a path is given, and return it.
 
-    The file holds no software stamp: the same figure, the same bytes.
+    The file holds no software stamp (the same figure, the same bytes), and appears whole
+    or not at all (written to a temporary file, then renamed).
 
     Parameters
     ----------
@@ -49,7 +50,10 @@ def finish(fig: "Figure", path: str | os.PathLike | None) -> "Figure":
         ``fig``.
     """
     if path is not None:  # no software version in the file: the same figure, the same bytes
-        fig.savefig(path, dpi=DPI, metadata={"Software": None})
+        from ..._utils.atomic_files import atomic_path
+
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=DPI, metadata={"Software": None})
     return fig
 
 

@@ -16,6 +16,8 @@ fields, an empty or non-numeric key, a run written twice, columns of another pro
 silently.
 """
 
+from __future__ import annotations
+
 import csv
 import io
 import os
@@ -28,7 +30,7 @@ from typing import Any, Literal
 import pandas as pd
 
 from ..._utils.atomic_files import atomic_path
-from ..._utils.checks import InputError
+from ..._utils.checks import InputError, check_path
 from ._grid import KEY, row_key
 
 fcntl: ModuleType | None
@@ -158,7 +160,7 @@ class ResultsFile:
     """
 
     def __init__(self, out: str | os.PathLike) -> None:
-        self.out = Path(out)
+        self.out = check_path("out", out)
         if self.out.suffix not in (".csv", ".parquet"):
             raise InputError(f"out must be a .csv or .parquet file name, got {str(self.out)!r}")
         self.existing = pd.DataFrame()
@@ -166,7 +168,7 @@ class ResultsFile:
         self._file_lock: int | None = None
         self._columns: list[str] = []
 
-    def __enter__(self) -> "ResultsFile":
+    def __enter__(self) -> ResultsFile:
         from filelock import FileLock, Timeout
 
         if _is_parquet(self.out):
