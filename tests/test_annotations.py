@@ -21,7 +21,7 @@ import pytest
 import skf_ref
 
 #: False while layers still lack hints: the test reports the gaps as an expected failure.
-STRICT = False
+STRICT = True
 
 
 def public_modules() -> list[str]:

@@ -325,11 +325,6 @@ def test_check_memory_limit_passes_a_budget_or_none():
     assert check_memory_limit(None) is None and check_memory_limit(2**30) == 2.0**30
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="io/raw.py (another branch's file) calls check_memory_limit at merge: then this "
-    "passes and the mark must go",
-)
 @pytest.mark.parametrize("value, error, match", MEMORY_LIMITS)
 def test_apply_skf_raw_checks_memory_limit(mne_setup, value, error, match):
     import mne
