@@ -63,7 +63,11 @@ def apply_skf_raw(
     operator : SKFOperator
     start, stop : int, optional
         The first sample and the one after the last (indices, as ``raw.get_data``).
-    exponent, smoother, pick_ori
+    exponent : float
+        As :func:`apply_skf`.
+    smoother : {None, "rts-standardized", "rts-state"}
+        As :func:`apply_skf`.
+    pick_ori : {None, "vector"}
         As :func:`apply_skf`.
     out : path-like, optional
         A zarr store to create (e.g. ``"run1-skf.zarr"``): its array ``"data"`` holds what
