@@ -191,6 +191,11 @@ class StateSpaceModel:
         """Columns of the lead field, the state's components (int)."""
         return self.L.shape[1]
 
+    @functools.cached_property
+    def _smallest_noise_std(self) -> float:
+        """The square root of ``R``'s smallest eigenvalue, once per model (epochs share it)."""
+        return float(np.sqrt(np.linalg.eigvalsh(self.R)[0]))
+
     def check_data(self, Y: ArrayLike) -> NDArray[np.float64]:
         """``Y`` as a float array, finite and in range but for its missing steps.
 
@@ -221,7 +226,7 @@ class StateSpaceModel:
         missing = missing_steps(Y)
         observed = Y[:, ~missing] if missing.any() else Y
         self._check_reference(observed)
-        noise_std = np.sqrt(np.linalg.eigvalsh(self.R)[0])
+        noise_std = self._smallest_noise_std
         size = np.max(np.abs(observed)) / noise_std
         if size > 0 and not np.log(size) * 2 + np.log(observed.size) < np.log(_LARGEST):
             raise InputError(
