@@ -17,8 +17,8 @@ import pytest
 from skf_ref.method.powers import SYM3_ENTRIES, block_power, sym3_power
 
 EPS = np.finfo(float).eps
-# the worst seen on the cases below (300 blocks each, in a longer run than this one's 25): 800 eps at kappa <= 100, where the
-# closed form is used, and eigh's own error past it
+# the worst seen on these cases (300 blocks each, in a longer run than this one's 25): 800
+# eps at kappa <= 100, where the closed form is used, and eigh's own error past it
 CLOSED_FORM_FACTOR = 1e3
 EXPONENTS = (0.0, 0.25, 0.5, 0.7, 1.0, 1.25, 1.5, 2.0)
 
@@ -45,7 +45,8 @@ def cases():
         out[f"triple, gap {gap:g}"] = with_eigenvalues(rng, 1 + gap * rng.uniform(size=(n, 3)))
         top = np.column_stack([np.ones(n), 1 + gap * rng.uniform(size=n), rng.uniform(0.02, 1, n)])
         out[f"top pair, gap {gap:g}"] = with_eigenvalues(rng, top)
-        low = np.column_stack([np.ones(n), 0.02 * (1 + gap * rng.uniform(size=n)), np.full(n, 0.02)])
+        near = 0.02 * (1 + gap * rng.uniform(size=n))
+        low = np.column_stack([np.ones(n), near, np.full(n, 0.02)])
         out[f"bottom pair, gap {gap:g}"] = with_eigenvalues(rng, low)
     diagonal = np.zeros((n, 3, 3))
     diagonal[:, [0, 1, 2], [0, 1, 2]] = 10 ** rng.uniform(-4, 0, (n, 3))
@@ -148,3 +149,30 @@ def test_a_singular_block_gives_a_non_finite_power():
     with np.errstate(all="ignore"):
         assert not np.isfinite(sym3_power(entries(B), 0.5)).all()
         assert not np.isfinite(block_power(B, 0.5)).all()
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+@pytest.mark.parametrize("exponent", [e for e in EXPONENTS if 0 < e and (4 * e) % 1 == 0])
+def test_compiled_closed_form_against_forty_digits(name, exponent):
+    # the numba loop (polynomial trisection, square roots only), where numba is installed
+    compiled = pytest.importorskip("skf_ref.method.sym3_compiled")
+    if not compiled.AVAILABLE:
+        pytest.skip("numba is not installed")
+    B = CASES[name]
+    b = np.ascontiguousarray(entries(B))
+    F = compiled.power(b, compiled.compiled_exponent(exponent), np.empty_like(b))
+    left = ~np.isfinite(F[0])  # blocks the closed form leaves to LAPACK
+    F[:, left] = sym3_power(b[:, left], exponent)
+    exact = exact_power(name, exponent)
+    eigenvalues = np.linalg.eigvalsh(B)
+    kappa = eigenvalues[:, 2] / eigenvalues[:, 0]
+    error = np.linalg.norm(full(F) - exact, 2, axis=(1, 2)) / np.linalg.norm(exact, 2, axis=(1, 2))
+    assert np.all(error <= CLOSED_FORM_FACTOR * EPS * np.maximum(kappa, 1.0))
+    v = np.random.default_rng(4).standard_normal((3, len(B)))
+    z = compiled.apply_power(b, v, compiled.compiled_exponent(exponent), np.empty_like(v))
+    expected = np.einsum("nij,jn->in", exact, v)
+    kept = ~left
+    assert np.all(np.isnan(z[:, left]))
+    np.testing.assert_allclose(
+        z[:, kept], expected[:, kept], rtol=0, atol=1e-10 * np.abs(expected).max()
+    )

@@ -66,9 +66,7 @@ def batch_smoother(L, Y, R, A, Q, P0):
     Cxy = Cxx @ big_L.T
     gain = linalg.solve(Cyy, Cxy.T, assume_a="pos").T
     x_s = (gain @ Y.T.ravel()).reshape(T, n)
-    covariance = np.array(
-        [gain[t * n : t * n + n] @ Cxy[t * n : t * n + n].T for t in range(T)]
-    )
+    covariance = np.array([gain[t * n : t * n + n] @ Cxy[t * n : t * n + n].T for t in range(T)])
     return x_s, covariance, Sigma
 
 
