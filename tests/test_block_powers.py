@@ -14,7 +14,7 @@ import mpmath
 import numpy as np
 import pytest
 
-from skf_ref.method.powers import SYM3_ENTRIES, block_power, sym3_power
+from skf_ref.method._powers import RCOND, SYM3_ENTRIES, block_power, sym3_apply, sym3_power
 
 EPS = np.finfo(float).eps
 # the worst seen on these cases (300 blocks each, in a longer run than this one's 25): 800
@@ -155,12 +155,13 @@ def test_a_singular_block_gives_a_non_finite_power():
 @pytest.mark.parametrize("exponent", [e for e in EXPONENTS if 0 < e and (4 * e) % 1 == 0])
 def test_compiled_closed_form_against_forty_digits(name, exponent):
     # the numba loop (polynomial trisection, square roots only), where numba is installed
-    compiled = pytest.importorskip("skf_ref.method.sym3_compiled")
+    compiled = pytest.importorskip("skf_ref.method._sym3_compiled")
     if not compiled.AVAILABLE:
         pytest.skip("numba is not installed")
     B = CASES[name]
     b = np.ascontiguousarray(entries(B))
-    F = compiled.power(b, compiled.compiled_exponent(exponent), np.empty_like(b))
+    m = compiled.compiled_exponent(exponent)
+    F = compiled.power(b, m, RCOND, np.empty_like(b))
     left = ~np.isfinite(F[0])  # blocks the closed form leaves to LAPACK
     F[:, left] = sym3_power(b[:, left], exponent)
     exact = exact_power(name, exponent)
@@ -169,10 +170,29 @@ def test_compiled_closed_form_against_forty_digits(name, exponent):
     error = np.linalg.norm(full(F) - exact, 2, axis=(1, 2)) / np.linalg.norm(exact, 2, axis=(1, 2))
     assert np.all(error <= CLOSED_FORM_FACTOR * EPS * np.maximum(kappa, 1.0))
     v = np.random.default_rng(4).standard_normal((3, len(B)))
-    z = compiled.apply_power(b, v, compiled.compiled_exponent(exponent), np.empty_like(v))
+    z = compiled.apply_power(b, v, m, RCOND, np.empty_like(v))
     expected = np.einsum("nij,jn->in", exact, v)
     kept = ~left
     assert np.all(np.isnan(z[:, left]))
     np.testing.assert_allclose(
         z[:, kept], expected[:, kept], rtol=0, atol=1e-10 * np.abs(expected).max()
     )
+
+
+@pytest.mark.parametrize("exponent", [0.5, 0.7, 1.25])
+def test_apply_is_the_power_times_the_vector(exponent, monkeypatch):
+    # both ways: numpy, and the compiled loop where numba is installed (any size)
+    from skf_ref.method import _sym3_compiled
+
+    rng = np.random.default_rng(5)
+    A = rng.standard_normal((40, 3, 6))
+    B = A @ np.swapaxes(A, 1, 2)
+    B[0] = np.diag([1.0, 1e-4, 1e-4])  # left to LAPACK
+    b, v = entries(B), rng.standard_normal((3, 40))
+    expected = np.einsum("nij,jn->in", block_power(B, exponent), v)
+    for threshold in (10**9, 1):
+        monkeypatch.setattr(_sym3_compiled, "MIN_BLOCKS", threshold)
+        z = sym3_apply(b, v, exponent)
+        np.testing.assert_allclose(z, expected, rtol=0, atol=1e-11 * np.abs(expected).max())
+        F = sym3_power(b, exponent)
+        np.testing.assert_allclose(full(F), block_power(B, exponent), rtol=0, atol=1e-10)

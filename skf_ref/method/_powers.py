@@ -31,11 +31,20 @@ of EEG sit far inside this (condition numbers below 35 on the sphere and the sam
 subject's BEM heads). Against a 40-digit evaluation of the same blocks the closed form's
 normwise error is at most 800 eps on blocks with eigenvalues within two decades
 (tests/test_block_powers.py), against LAPACK's 75.
+
+Where numba is installed, arrays of at least ``MIN_BLOCKS`` blocks at the exponents
+``m / 4`` go to the same closed form compiled into one vectorized loop
+(``skf_ref.method._sym3_compiled``), 6 to 10 times faster; the two agree to rounding.
 """
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["RCOND", "SYM3_ENTRIES", "block_power", "sym3_power"]
+from . import _sym3_compiled as compiled
+
+__all__ = ["RCOND", "SYM3_ENTRIES", "block_power", "sym3_apply", "sym3_power"]
+
+_Array = NDArray[np.float64]
 
 #: The (row, column) of each of the six entries of a symmetric 3 x 3 block, in the order
 #: :func:`sym3_power` takes and returns them.
@@ -54,7 +63,7 @@ _SQUARE = (
 )
 
 
-def block_power(B, exponent):
+def block_power(B: ArrayLike, exponent: float) -> _Array:
     """``B^-exponent`` of each symmetric positive definite block, by ``eigh`` (the definition).
 
     Parameters
@@ -74,13 +83,13 @@ def block_power(B, exponent):
     >>> block_power(np.diag([4.0, 0.25])[None], 0.5).round(12).tolist()
     [[[0.5, 0.0], [0.0, 2.0]]]
     """
-    eigenvalues, E = np.linalg.eigh(B)
+    eigenvalues, E = np.linalg.eigh(np.asarray(B, dtype=float))
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         F = (E * eigenvalues[..., None, :] ** -exponent) @ np.swapaxes(E, -1, -2)
     return (F + np.swapaxes(F, -1, -2)) / 2
 
 
-def sym3_power(b, exponent, out=None):
+def sym3_power(b: ArrayLike, exponent: float, out: _Array | None = None) -> _Array:
     """``B^-exponent`` of symmetric positive definite 3 x 3 blocks given by their entries.
 
     Parameters
@@ -106,11 +115,23 @@ def sym3_power(b, exponent, out=None):
     True
     """
     b = np.asarray(b, dtype=float)
-    out = np.empty_like(b) if out is None else out
+    result = np.empty_like(b) if out is None else out
+    flat, F = b.reshape(6, -1), result.reshape(6, -1)  # views (a copy only for 0-d blocks)
     if exponent == 0:
-        out[...] = 0.0
-        out[list(_DIAGONAL)] = 1.0
-        return out
+        F[...] = 0.0
+        F[list(_DIAGONAL)] = 1.0
+    elif (m := _compiled(flat, exponent)) is not None:
+        compiled.power(np.ascontiguousarray(flat), m, RCOND, F)
+        _by_lapack(flat, exponent, F, ~np.isfinite(F[0]))
+    else:
+        _closed_form(flat, exponent, F)
+    if not np.shares_memory(F, result):
+        result[...] = F.reshape(result.shape)
+    return result
+
+
+def _closed_form(b: _Array, exponent: float, out: _Array) -> _Array:
+    """:func:`sym3_power` in numpy passes over (6, N) arrays ``b`` into ``out``."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
         scale = (b[0] + b[3] + b[5]) / 3
         c = b / scale  # B / q: eigenvalues about 1, nothing under- or overflows
@@ -126,7 +147,75 @@ def sym3_power(b, exponent, out=None):
         for k in _DIAGONAL:
             out[k] += c0
         out *= np.exp(-exponent * np.log(scale))  # (q C)^-alpha = q^-alpha C^-alpha
-    far = ~(l3 >= RCOND * l1)  # ill-conditioned, not positive, or not finite
+    return _by_lapack(b, exponent, out, ~(l3 >= RCOND * l1))  # not positive, or not finite
+
+
+def sym3_apply(b: ArrayLike, v: ArrayLike, exponent: float, out: _Array | None = None) -> _Array:
+    """``B^-exponent v`` for symmetric positive definite 3 x 3 blocks and 3-vectors.
+
+    Parameters
+    ----------
+    b : ndarray, shape (6, ...)
+        The entries of the blocks (:data:`SYM3_ENTRIES`).
+    v : ndarray, shape (3, ...)
+        One vector per block.
+    exponent : float
+    out : ndarray, shape (3, ...), optional
+        Where to write the result (not ``v``).
+
+    Returns
+    -------
+    ndarray, shape (3, ...)
+
+    Examples
+    --------
+    >>> b = np.array([4.0, 0.0, 0.0, 1.0, 0.0, 0.25])  # Diag(4, 1, 1/4)
+    >>> sym3_apply(b, np.ones(3), 0.5).round(12).tolist()
+    [0.5, 1.0, 2.0]
+    """
+    b = np.asarray(b, dtype=float).reshape(6, -1)
+    v = np.asarray(v, dtype=float)
+    result = np.empty_like(v) if out is None else out
+    flat_v = v.reshape(3, -1)
+    z = np.empty_like(flat_v)
+    m = _compiled(b, exponent)
+    if m is None:
+        _times(sym3_power(b, exponent), flat_v, z)
+    else:
+        compiled.apply_power(np.ascontiguousarray(b), np.ascontiguousarray(flat_v), m, RCOND, z)
+        far = ~np.isfinite(z[0])  # left to LAPACK
+        if far.any():
+            z[:, far] = _times(_by_lapack(b[:, far], exponent, None), flat_v[:, far])
+    result[...] = z.reshape(v.shape)
+    return result
+
+
+def _times(F: _Array, v: _Array, out: _Array | None = None) -> _Array:
+    """``F v`` for the entries ``F`` (6, N) of symmetric blocks and vectors ``v`` (3, N)."""
+    out = np.empty_like(v) if out is None else out
+    for i, (k0, k1, k2) in enumerate(((0, 1, 2), (1, 3, 4), (2, 4, 5))):
+        np.multiply(F[k0], v[0], out=out[i])
+        out[i] += F[k1] * v[1]
+        out[i] += F[k2] * v[2]
+    return out
+
+
+def _compiled(b: _Array, exponent: float) -> int | None:
+    """``m`` for the compiled loop (exponent m / 4), or None: numba missing, too few blocks
+    to pay for compiling, another exponent."""
+    if not compiled.AVAILABLE or b[0].size < compiled.MIN_BLOCKS:
+        return None
+    return compiled.compiled_exponent(exponent)
+
+
+def _by_lapack(
+    b: _Array, exponent: float, out: _Array | None, far: NDArray[np.bool_] | None = None
+) -> _Array:
+    """``out`` with the blocks ``far`` (ill-conditioned) computed by :func:`block_power`;
+    with ``out=None``, every block of ``b`` (6, N), into a new array."""
+    if out is None:
+        out, far = np.empty_like(b), np.ones(b.shape[1], bool)
+    assert far is not None
     if far.any():
         blocks = np.empty((int(far.sum()), 3, 3))
         for k, (i, j) in enumerate(SYM3_ENTRIES):
@@ -137,7 +226,7 @@ def sym3_power(b, exponent, out=None):
     return out
 
 
-def _eigenvalues(c):
+def _eigenvalues(c: _Array) -> tuple[_Array, _Array, _Array]:
     """``l1 >= l2 >= l3`` of blocks ``c`` (6, ...) with trace 3, trigonometric form."""
     d0, d1, d2 = c[0] - 1, c[3] - 1, c[5] - 1
     c01, c02, c12 = c[1], c[2], c[4]
@@ -152,7 +241,7 @@ def _eigenvalues(c):
     return l1, 3 - l1 - l3, l3
 
 
-def _newton(l1, l2, l3, exponent):
+def _newton(l1: _Array, l2: _Array, l3: _Array, exponent: float) -> tuple[_Array, _Array, _Array]:
     """``f(l1), f[l1, l2], f[l1, l2, l3]`` for ``f(x) = x^-exponent``, ``l1 >= l2 >= l3 > 0``."""
     if exponent == 0.5:
         s1, s2, s3 = np.sqrt(l1), np.sqrt(l2), np.sqrt(l3)

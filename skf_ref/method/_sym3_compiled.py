@@ -1,6 +1,6 @@
-r"""The 3 x 3 closed form of :mod:`skf_ref.method.powers`, compiled by numba when it is installed.
+r"""The 3 x 3 closed form of ``skf_ref.method._powers``, compiled by numba when it is installed.
 
-The same algebra as :func:`skf_ref.method.powers.sym3_power`, element by element in one
+The same algebra as ``skf_ref.method._powers.sym3_power``, element by element in one
 loop that the compiler turns into vector instructions: 6 to 10 times faster than numpy's
 passes over whole arrays (20-25 ns a block against 120-290 ns, measured on this project's
 benchmark machine), which is what standardizing 50 000 positions at each of 1000 steps
@@ -16,7 +16,7 @@ needs. Two changes make the loop vectorizable, neither changes the result beyond
   ``f[a, b] = -(sum_k ya^k yb^(m-1-k)) / (ya^m yb^m (ya + yb)(ya^2 + yb^2))``, a sum of
   positive terms (no cancellation, no ``exp`` or ``log``).
 
-A block the closed form leaves to LAPACK (:data:`skf_ref.method.powers.RCOND`) comes out
+A block the closed form leaves to LAPACK (``rcond``, ``skf_ref.method._powers.RCOND``) comes out
 as NaN here, and the caller computes it by numpy. Each exponent compiles once per process
 (about a second; cached on disk by numba where it can write), so the spectral path calls
 this only for many blocks (:data:`MIN_BLOCKS`).
@@ -26,8 +26,7 @@ import functools
 import math
 
 import numpy as np
-
-from .powers import RCOND
+from numpy.typing import NDArray
 
 __all__ = ["AVAILABLE", "MIN_BLOCKS", "apply_power", "compiled_exponent", "power"]
 
@@ -43,7 +42,7 @@ MIN_BLOCKS = 2_000_000
 _DEGREE = 18
 
 
-def compiled_exponent(exponent):
+def compiled_exponent(exponent: float) -> int | None:
     """``4 * exponent`` if it is an integer from 1 to 8 (the compiled exponents), else None.
 
     Examples
@@ -55,7 +54,7 @@ def compiled_exponent(exponent):
     return int(m) if m == int(m) and 1 <= m <= 8 else None
 
 
-def _trisection_polynomials():
+def _trisection_polynomials() -> list[NDArray[np.float64]]:
     """Monomial coefficients of ``C(t) = cos(2/3 arccos t)`` and
     ``H(t) = sin(2/3 arccos t) / (1 - t)^(1/2)`` on [0, 1], degree :data:`_DEGREE`."""
     nodes = (np.cos(np.pi * (np.arange(4 * _DEGREE) + 0.5) / (4 * _DEGREE)) + 1) / 2
@@ -100,7 +99,7 @@ if AVAILABLE:
         return -total / (power_m(ya, m) * power_m(yb, m) * (ya + yb) * (ya * ya + yb * yb))
 
     @_jit
-    def coefficients(b0, b1, b2, b3, b4, b5, m):
+    def coefficients(b0, b1, b2, b3, b4, b5, m, rcond):
         """``c`` = B / q and (k0, k1, k2) with B^-alpha = k0 I + k1 c + k2 c^2; NaN k0 when
         the block is left to LAPACK."""
         q = (b0 + b3 + b5) * (1.0 / 3.0)
@@ -132,16 +131,16 @@ if AVAILABLE:
         f123 = (f12 - f23) / d13 if d13 > 0.0 else second
         scale = 1.0 / power_m(math.sqrt(math.sqrt(q)), m)  # (q C)^-alpha = q^-alpha C^-alpha
         k0 = (f1 - f12 * l1 + f123 * l1 * l2) * scale
-        k0 = k0 if l3 >= RCOND * l1 else math.nan
+        k0 = k0 if l3 >= rcond * l1 else math.nan
         return c00, c01, c02, c11, c12, c22, k0, (f12 - f123 * (l1 + l2)) * scale, f123 * scale
 
     _OPTIONS = dict(nogil=True, error_model="numpy", fastmath={"contract"}, cache=True)
 
     @numba.njit(**_OPTIONS)
-    def _run(b0, b1, b2, b3, b4, b5, m, o0, o1, o2, o3, o4, o5):
+    def _run(b0, b1, b2, b3, b4, b5, m, rcond, o0, o1, o2, o3, o4, o5):
         for i in range(b0.shape[0]):
             c00, c01, c02, c11, c12, c22, k0, k1, k2 = coefficients(
-                b0[i], b1[i], b2[i], b3[i], b4[i], b5[i], m
+                b0[i], b1[i], b2[i], b3[i], b4[i], b5[i], m, rcond
             )
             o0[i] = k0 + k1 * c00 + k2 * (c00 * c00 + c01 * c01 + c02 * c02)
             o1[i] = k1 * c01 + k2 * (c00 * c01 + c01 * c11 + c02 * c12) + 0.0 * k0
@@ -151,10 +150,10 @@ if AVAILABLE:
             o5[i] = k0 + k1 * c22 + k2 * (c02 * c02 + c12 * c12 + c22 * c22)
 
     @numba.njit(**_OPTIONS)
-    def _run_fused(b0, b1, b2, b3, b4, b5, v0, v1, v2, m, o0, o1, o2):
+    def _run_fused(b0, b1, b2, b3, b4, b5, v0, v1, v2, m, rcond, o0, o1, o2):
         for i in range(b0.shape[0]):
             c00, c01, c02, c11, c12, c22, k0, k1, k2 = coefficients(
-                b0[i], b1[i], b2[i], b3[i], b4[i], b5[i], m
+                b0[i], b1[i], b2[i], b3[i], b4[i], b5[i], m, rcond
             )
             x0, x1, x2 = v0[i], v1[i], v2[i]
             # B^-alpha v = k0 v + k1 c v + k2 c (c v)
@@ -166,15 +165,23 @@ if AVAILABLE:
             o2[i] = k0 * x2 + k1 * u2 + k2 * (c02 * u0 + c12 * u1 + c22 * u2)
 
 
-def power(b, m, out):
-    """``out = B^-(m/4)`` for contiguous ``b``, ``out`` of shape (6, N); NaN blocks left to
-    LAPACK."""
-    _run(*b, m, *out)
+def power(
+    b: NDArray[np.float64], m: int, rcond: float, out: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """``out = B^-(m/4)`` for contiguous ``b``, ``out`` of shape (6, N); NaN in the blocks
+    whose smallest eigenvalue is below ``rcond`` times the largest (left to LAPACK)."""
+    _run(*b, m, rcond, *out)
     return out
 
 
-def apply_power(b, v, m, out):
+def apply_power(
+    b: NDArray[np.float64],
+    v: NDArray[np.float64],
+    m: int,
+    rcond: float,
+    out: NDArray[np.float64],
+) -> NDArray[np.float64]:
     """``out = B^-(m/4) v`` for contiguous ``b`` (6, N), ``v`` and ``out`` (3, N); NaN
-    where the block is left to LAPACK."""
-    _run_fused(*b, *v, m, *out)
+    where the block is left to LAPACK (as :func:`power`)."""
+    _run_fused(*b, *v, m, rcond, *out)
     return out
