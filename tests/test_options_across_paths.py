@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from skf_ref import priors_from_snr, reconstruct
-from skf_ref.method.paths import dense
+from skf_ref.method._paths import dense
 
 QUANTITIES = ("z", "x", "z_filtered", "x_filtered", "weights")
 SMOOTHERS = (None, "rts-standardized", "rts-state", "rts-smoothed-weights")
@@ -32,7 +32,7 @@ def models(draw):
     seed = draw(st.integers(0, 2**32 - 1))
     rng = np.random.default_rng(seed)
     n_orient = draw(st.sampled_from([1, 3]))
-    m = draw(st.integers(3, 10))
+    m = draw(st.integers(5 if n_orient == 3 else 3, 10))  # a position seen in 3 orientations
     n = n_orient * draw(st.integers(1, 5))
     T = draw(st.integers(1, 6))
     L = rng.standard_normal((m, n)) * rng.uniform(0.2, 2.0, n)

@@ -40,7 +40,7 @@ Where numba is installed, arrays of at least ``MIN_BLOCKS`` blocks at the expone
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import _sym3_compiled as compiled
+from ._sym3_compiled import apply_power, power, use_compiled
 
 __all__ = ["RCOND", "SYM3_ENTRIES", "block_power", "sym3_apply", "sym3_power"]
 
@@ -121,7 +121,7 @@ def sym3_power(b: ArrayLike, exponent: float, out: _Array | None = None) -> _Arr
         F[...] = 0.0
         F[list(_DIAGONAL)] = 1.0
     elif (m := _compiled(flat, exponent)) is not None:
-        compiled.power(np.ascontiguousarray(flat), m, RCOND, F)
+        power(np.ascontiguousarray(flat), m, RCOND, F)
         _by_lapack(flat, exponent, F, ~np.isfinite(F[0]))
     else:
         _closed_form(flat, exponent, F)
@@ -182,7 +182,7 @@ def sym3_apply(b: ArrayLike, v: ArrayLike, exponent: float, out: _Array | None =
     if m is None:
         _times(sym3_power(b, exponent), flat_v, z)
     else:
-        compiled.apply_power(np.ascontiguousarray(b), np.ascontiguousarray(flat_v), m, RCOND, z)
+        apply_power(np.ascontiguousarray(b), np.ascontiguousarray(flat_v), m, RCOND, z)
         far = ~np.isfinite(z[0])  # left to LAPACK
         if far.any():
             z[:, far] = _times(_by_lapack(b[:, far], exponent, None), flat_v[:, far])
@@ -201,11 +201,8 @@ def _times(F: _Array, v: _Array, out: _Array | None = None) -> _Array:
 
 
 def _compiled(b: _Array, exponent: float) -> int | None:
-    """``m`` for the compiled loop (exponent m / 4), or None: numba missing, too few blocks
-    to pay for compiling, another exponent."""
-    if not compiled.AVAILABLE or b[0].size < compiled.MIN_BLOCKS:
-        return None
-    return compiled.compiled_exponent(exponent)
+    """``m`` for the compiled loop (exponent m / 4), or None (``use_compiled``)."""
+    return use_compiled(b[0].size, exponent)
 
 
 def _by_lapack(

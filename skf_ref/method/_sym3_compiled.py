@@ -28,7 +28,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["AVAILABLE", "MIN_BLOCKS", "apply_power", "compiled_exponent", "power"]
+__all__ = ["AVAILABLE", "MIN_BLOCKS", "apply_power", "compiled_exponent", "power", "use_compiled"]
 
 try:
     import numba
@@ -52,6 +52,21 @@ def compiled_exponent(exponent: float) -> int | None:
     """
     m = 4 * float(exponent)
     return int(m) if m == int(m) and 1 <= m <= 8 else None
+
+
+def use_compiled(n_blocks: int, exponent: float) -> int | None:
+    """``m`` (exponent ``m / 4``) if the compiled loop should take ``n_blocks`` blocks at
+    ``exponent``, else None: numba missing, too few blocks to pay for compiling, or an
+    exponent that is not one of the compiled ones.
+
+    Examples
+    --------
+    >>> use_compiled(10, 0.5) is None  # too few blocks
+    True
+    """
+    if not AVAILABLE or n_blocks < MIN_BLOCKS:
+        return None
+    return compiled_exponent(exponent)
 
 
 def _trisection_polynomials() -> list[NDArray[np.float64]]:
