@@ -28,6 +28,7 @@ def apply_skf_raw(
     exponent=0.5,
     smoother=None,
     pick_ori=None,
+    standardize="column",
     out=None,
     overwrite=False,
     memory_limit=None,
@@ -53,7 +54,7 @@ def apply_skf_raw(
     operator : SKFOperator
     start, stop : int, optional
         The first sample and the one after the last (indices, as ``raw.get_data``).
-    exponent, smoother, pick_ori
+    exponent, smoother, pick_ori, standardize
         As :func:`apply_skf`.
     out : path-like, optional
         A zarr store to create (e.g. ``"run1-skf.zarr"``): its array ``"data"`` holds what
@@ -117,7 +118,11 @@ def apply_skf_raw(
         )
         data = _select(operator, info, data, raw.times[start:stop])
         rec = operator.reconstruct(
-            data, exponent=exponent, smoother=smoother, memory_limit=memory_limit
+            data,
+            exponent=exponent,
+            smoother=smoother,
+            memory_limit=memory_limit,
+            standardize=standardize,
         )
         tmin, tstep = float(raw.times[start]), 1.0 / raw.info["sfreq"]
         if out is None:
