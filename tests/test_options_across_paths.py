@@ -7,6 +7,7 @@ every time (tests/conftest.py); ``--hypothesis-profile=explore`` draws thousands
 """
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -114,3 +115,53 @@ def test_streamed_blocks_equal_the_whole_arrays(model):
         whole = getattr(rec, name)
         blocks = np.vstack([block for _, block in again.blocks(name, rows=model["n_orient"])])
         np.testing.assert_allclose(blocks, whole, rtol=1e-13, atol=1e-13 * np.abs(whole).max())
+
+
+@given(models(), st.data())
+def test_missing_steps_agree_across_paths(model, data):
+    # a column of NaN is a missing step (docs/model.md §2); the smoothed weights are
+    # defined there (the smoothed state and its covariance are), the filter's are not
+    T = model["Y"].shape[1]
+    if model["smoother"] == "rts-standardized" or T < 2:
+        return  # refused over gaps (test_entry_point); one step leaves nothing observed
+    gap = data.draw(st.integers(0, T - 1))
+    model = dict(model, Y=model["Y"].copy())
+    model["Y"][:, gap] = np.nan
+    reference = reconstruct(**model, method="dense")
+    assert reference.missing[gap]
+    defined = model["smoother"] == "rts-smoothed-weights"
+    assert np.isfinite(reference.z[:, gap]).all() == defined
+    rtol = tolerance(model)
+    for method in ("spectral", "filterpy"):
+        other = reconstruct(**model, method=method)
+        for name in QUANTITIES:
+            a, b = getattr(other, name), getattr(reference, name)
+            np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
+            kept = ~np.isnan(b)
+            scale = np.max(np.abs(b[kept]))
+            assert np.max(np.abs(a[kept] - b[kept])) <= rtol * scale, (method, name)
+
+
+@pytest.mark.parametrize("smoother", SMOOTHERS)
+@pytest.mark.parametrize("standardize", ["column", "position"])
+def test_held_recursions_equal_the_full_ones(monkeypatch, smoother, standardize):
+    # a recording long enough to settle: the held blocks F V (docs/model.md §9) against the
+    # full recursion; the smoothed weights never settle (every step its own)
+    from skf_ref.method._paths import recursions
+
+    rng = np.random.default_rng(3)
+    L = rng.standard_normal((8, 9))
+    Y = np.cumsum(rng.standard_normal((8, 150)), axis=1)
+    theta0, q = priors_from_snr(L, 1.0, pm_snr_db=0.0, ep_snr_db=20.0, n_steps=20)
+    common = dict(
+        noise_std=1.0, theta0=theta0, q=q, exponent=1.25, smoother=smoother,
+        standardize=standardize, n_orient=3, method="spectral",
+    )  # fmt: skip
+    held = reconstruct(L, Y, **common)
+    with monkeypatch.context() as patch:
+        patch.setattr(recursions, "STEADY_RTOL", -1.0)
+        full = reconstruct(L, Y, **common)
+    dense_result = reconstruct(L, Y, **dict(common, method="dense"))
+    for name in QUANTITIES:
+        assert relative(getattr(held, name), getattr(full, name)) < 1e-12, name
+        assert relative(getattr(held, name), getattr(dense_result, name)) < 1e-10, name
