@@ -117,9 +117,9 @@ def sym3_power(b: ArrayLike, exponent: float, out: _Array | None = None) -> _Arr
     b = np.asarray(b, dtype=float)
     result = np.empty_like(b) if out is None else out
     flat, F = b.reshape(6, -1), result.reshape(6, -1)  # views (a copy only for 0-d blocks)
-    if exponent == 0:
-        F[...] = 0.0
-        F[list(_DIAGONAL)] = 1.0
+    if exponent == 0:  # the identity, NaN kept (a missing step has no weights)
+        F[...] = 0.0 * flat
+        F[list(_DIAGONAL)] += 1.0
     elif (m := _compiled(flat, exponent)) is not None:
         power(np.ascontiguousarray(flat), m, RCOND, F)
         _by_lapack(flat, exponent, F, ~np.isfinite(F[0]))
@@ -213,6 +213,9 @@ def _by_lapack(
     if out is None:
         out, far = np.empty_like(b), np.ones(b.shape[1], bool)
     assert far is not None
+    undefined = far & ~np.isfinite(b).all(axis=0)  # a missing step's NaN stays NaN
+    out[:, undefined] = np.nan
+    far = far & ~undefined
     if far.any():
         blocks = np.empty((int(far.sum()), 3, 3))
         for k, (i, j) in enumerate(SYM3_ENTRIES):
