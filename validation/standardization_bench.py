@@ -11,7 +11,7 @@ every step has weights of its own), each comparison times ``reconstruct(...).z``
 lead field and the data, the SVD included, on the spectral path:
 
 - ``standardize="position"`` (``n_orient=3``) against the column form, filter only, at
-  exponent 0.5 (target: at most :data:`TARGETS` ``["position, 0.5"]`` times the column
+  exponent 0.5 (target: at most :data:`TARGETS` ``["position-0.5"]`` times the column
   form) and at 1.25 (the paper's; target for exponents other than 0.5);
 - ``smoother="rts-smoothed-weights"`` against ``"rts-state"``, exponent 0.5, column form.
 
@@ -42,11 +42,11 @@ SIZE = (150_000, 128, 1000)
 HEADING = "## Standardization per position and the smoothed weights"
 #: label: (baseline settings, compared settings)
 COMPARISONS = {
-    "position, 0.5": (
+    "position-0.5": (
         dict(exponent=0.5, smoother=None),
         dict(exponent=0.5, smoother=None, standardize="position", n_orient=3),
     ),
-    "position, 1.25": (
+    "position-1.25": (
         dict(exponent=1.25, smoother=None),
         dict(exponent=1.25, smoother=None, standardize="position", n_orient=3),
     ),
@@ -56,7 +56,7 @@ COMPARISONS = {
     ),
 }
 #: The issue's targets: the compared run's time over the baseline's, at most.
-TARGETS = {"position, 0.5": 1.3, "position, 1.25": 2.0, "rts-smoothed-weights": 1.3}
+TARGETS = {"position-0.5": 1.3, "position-1.25": 2.0, "rts-smoothed-weights": 1.3}
 
 
 def runner(problem, settings):
