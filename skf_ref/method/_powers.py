@@ -89,7 +89,9 @@ def block_power(B: ArrayLike, exponent: float) -> _Array:
     return (F + np.swapaxes(F, -1, -2)) / 2
 
 
-def sym3_power(b: ArrayLike, exponent: float, out: _Array | None = None) -> _Array:
+def sym3_power(
+    b: ArrayLike, exponent: float, out: _Array | None = None, n_blocks: int | None = None
+) -> _Array:
     """``B^-exponent`` of symmetric positive definite 3 x 3 blocks given by their entries.
 
     Parameters
@@ -99,6 +101,9 @@ def sym3_power(b: ArrayLike, exponent: float, out: _Array | None = None) -> _Arr
     exponent : float
     out : ndarray, shape (6, ...), optional
         Where to write the result (not ``b``).
+    n_blocks : int, optional
+        The blocks of the whole job this call is part of (default those of ``b``): many
+        take the compiled loop where numba is installed, however the job is cut.
 
     Returns
     -------
@@ -120,7 +125,7 @@ def sym3_power(b: ArrayLike, exponent: float, out: _Array | None = None) -> _Arr
     if exponent == 0:  # the identity, NaN kept (a missing step has no weights)
         F[...] = 0.0 * flat
         F[list(_DIAGONAL)] += 1.0
-    elif (m := _compiled(flat, exponent)) is not None:
+    elif (m := use_compiled(n_blocks or flat.shape[1], exponent)) is not None:
         power(np.ascontiguousarray(flat), m, RCOND, F)
         _by_lapack(flat, exponent, F, ~np.isfinite(F[0]))
     else:
@@ -150,7 +155,13 @@ def _closed_form(b: _Array, exponent: float, out: _Array) -> _Array:
     return _by_lapack(b, exponent, out, ~(l3 >= RCOND * l1))  # not positive, or not finite
 
 
-def sym3_apply(b: ArrayLike, v: ArrayLike, exponent: float, out: _Array | None = None) -> _Array:
+def sym3_apply(
+    b: ArrayLike,
+    v: ArrayLike,
+    exponent: float,
+    out: _Array | None = None,
+    n_blocks: int | None = None,
+) -> _Array:
     """``B^-exponent v`` for symmetric positive definite 3 x 3 blocks and 3-vectors.
 
     Parameters
@@ -162,6 +173,8 @@ def sym3_apply(b: ArrayLike, v: ArrayLike, exponent: float, out: _Array | None =
     exponent : float
     out : ndarray, shape (3, ...), optional
         Where to write the result (not ``v``).
+    n_blocks : int, optional
+        As :func:`sym3_power`.
 
     Returns
     -------
@@ -178,7 +191,7 @@ def sym3_apply(b: ArrayLike, v: ArrayLike, exponent: float, out: _Array | None =
     result = np.empty_like(v) if out is None else out
     flat_v = v.reshape(3, -1)
     z = np.empty_like(flat_v)
-    m = _compiled(b, exponent)
+    m = use_compiled(n_blocks or b.shape[1], exponent)
     if m is None:
         _times(sym3_power(b, exponent), flat_v, z)
     else:
@@ -198,11 +211,6 @@ def _times(F: _Array, v: _Array, out: _Array | None = None) -> _Array:
         out[i] += F[k1] * v[1]
         out[i] += F[k2] * v[2]
     return out
-
-
-def _compiled(b: _Array, exponent: float) -> int | None:
-    """``m`` for the compiled loop (exponent m / 4), or None (``use_compiled``)."""
-    return use_compiled(b[0].size, exponent)
 
 
 def _by_lapack(

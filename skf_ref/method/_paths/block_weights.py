@@ -62,6 +62,8 @@ class BlockStandardization:
         self._projector: Any = None
         self.applications = 0  # data sets this standardization served
         self.kept = False  # the column form keeps its transient weights; blocks do not
+        # the blocks of a whole output: the compiled closed form pays off on many of them
+        self._jobs = len(V) // 3 * min(steady, n_times)
 
     @property
     def held(self) -> bool:
@@ -92,7 +94,7 @@ class BlockStandardization:
     def transient(self, rows: slice, times: slice, out: _Array | None = None) -> _Array:
         """The diagonal of ``W_t^(alpha)`` at ``rows`` and ``times`` (steps before
         ``steady``): (n_rows, n_steps)."""
-        F = sym3_power(self._blocks(rows, self.omega[times]), self.exponent)
+        F = sym3_power(self._blocks(rows, self.omega[times]), self.exponent, n_blocks=self._jobs)
         out = np.empty((3 * F.shape[1], F.shape[2])) if out is None else out
         for a, k in enumerate(_DIAGONAL):
             out[a::3] = F[k]
@@ -115,7 +117,8 @@ class BlockStandardization:
             part = out[:, : transient.stop - transient.start]
             v = (self.V[rows] @ u[transient].T).reshape(-1, 3, part.shape[1])
             b = self._blocks(rows, self.omega[transient])
-            z = sym3_apply(b, np.ascontiguousarray(v.transpose(1, 0, 2)), self.exponent)
+            v = np.ascontiguousarray(v.transpose(1, 0, 2))
+            z = sym3_apply(b, v, self.exponent, n_blocks=self._jobs)
             for a in range(3):  # rows 3i + a: orientation a of each position
                 part[a::3] = z[a]
         if held:  # one product: z_t = (F V) u_t
