@@ -19,6 +19,7 @@ state the blocks are held: ``F_i = B(i)^(-alpha)`` once per position, and
 rows come in whole positions (``align = 3``).
 """
 
+import threading
 from typing import Any
 
 import numpy as np
@@ -31,6 +32,9 @@ __all__ = ["BlockStandardization"]
 
 _Array = NDArray[np.float64]
 _DIAGONAL = (0, 3, 5)  # the diagonal among SYM3_ENTRIES
+#: Positions computed at once within a tile: their blocks, means and estimates (12 numbers
+#: a position and step) stay in cache between the product, the power and the copy out.
+_CHUNK_POSITIONS = 256
 
 
 class BlockStandardization:
@@ -64,25 +68,43 @@ class BlockStandardization:
         self.kept = False  # the column form keeps its transient weights; blocks do not
         # the blocks of a whole output: the compiled closed form pays off on many of them
         self._jobs = len(V) // 3 * min(steady, n_times)
+        self._pairs = threading.local()  # each worker's last rows and their products
 
     @property
     def held(self) -> bool:
         """bool : Whether the recording reaches the steady state."""
         return self.steady < self.n_times
 
-    def _blocks(self, rows: slice, omega: _Array) -> _Array:
+    def _blocks(self, rows: slice, omega: _Array, tile: Any = None) -> _Array:
         """The entries ``b_ab`` (6, n_positions, n_steps) of the blocks at ``rows`` for the
-        rows ``omega`` (n_steps, r): ``B_t(i) = V_i Diag(omega_t) V_i^T``."""
+        rows ``omega`` (n_steps, r): ``B_t(i) = V_i Diag(omega_t) V_i^T``. With ``tile`` (the
+        rows of the tile ``rows`` is part of) the products of ``V``'s rows are kept for the
+        worker's next tile of the same rows: the tiles of a row block come one after
+        another, and the products cost a quarter of the blocks' product if made anew."""
+        pairs = self._products(rows, tile)
+        # b_ab = (V_a o V_b) omega_t                                   docs/model.md §2
+        return (pairs @ omega.T).reshape(6, len(pairs) // 6, len(omega))
+
+    def _products(self, rows: slice, tile: Any = None) -> _Array:
+        """The rows ``V_a o V_b`` of the positions at ``rows`` (6 n_positions, r)."""
+        kept = self._pairs.__dict__
+        if tile is not None and kept.get("tile") != tile:
+            kept.clear()
+            kept["tile"] = tile
+        if tile is not None and rows.start in kept:
+            return kept[rows.start]
         Vi = self.V[rows].reshape(-1, 3, self.V.shape[1])
         pairs = np.concatenate([Vi[:, a] * Vi[:, b] for a, b in SYM3_ENTRIES])
-        # b_ab = (V_a o V_b) omega_t                                   docs/model.md §2
-        return (pairs @ omega.T).reshape(6, len(Vi), len(omega))
+        if tile is not None:
+            kept[rows.start] = pairs
+        return pairs
 
     def prepare(self) -> None:
         """Compute what the tiles share, in the calling thread (the workers only read it)."""
         if self.held and self._held is None:
             n, r = self.V.shape
-            F = sym3_power(self._blocks(slice(0, n), self.omega[-1:])[..., 0], self.exponent)
+            held = self._blocks(slice(0, n), self.omega[-1:])[..., 0]
+            F = sym3_power(held, self.exponent)
             full = np.empty((n // 3, 3, 3))
             for k, (i, j) in enumerate(SYM3_ENTRIES):
                 full[:, i, j] = full[:, j, i] = F[k]
@@ -94,7 +116,11 @@ class BlockStandardization:
     def transient(self, rows: slice, times: slice, out: _Array | None = None) -> _Array:
         """The diagonal of ``W_t^(alpha)`` at ``rows`` and ``times`` (steps before
         ``steady``): (n_rows, n_steps)."""
-        F = sym3_power(self._blocks(rows, self.omega[times]), self.exponent, n_blocks=self._jobs)
+        F = sym3_power(
+            self._blocks(rows, self.omega[times], (rows.start, rows.stop)),
+            self.exponent,
+            n_blocks=self._jobs,
+        )
         out = np.empty((3 * F.shape[1], F.shape[2])) if out is None else out
         for a, k in enumerate(_DIAGONAL):
             out[a::3] = F[k]
@@ -114,13 +140,16 @@ class BlockStandardization:
         ``times`` into ``out`` (n_rows, n_steps).  docs/model.md §2"""
         transient, held = tiles.split(times, self.steady)
         if transient:
-            part = out[:, : transient.stop - transient.start]
-            v = (self.V[rows] @ u[transient].T).reshape(-1, 3, part.shape[1])
-            b = self._blocks(rows, self.omega[transient])
-            v = np.ascontiguousarray(v.transpose(1, 0, 2))
-            z = sym3_apply(b, v, self.exponent, n_blocks=self._jobs)
-            for a in range(3):  # rows 3i + a: orientation a of each position
-                part[a::3] = z[a]
+            omega, u_steps = self.omega[transient], u[transient].T
+            n = transient.stop - transient.start
+            first = rows.start
+            # a few hundred positions at a time: the blocks, the means and z stay in cache
+            for chunk in tiles.slices(rows.start, rows.stop, 3 * _CHUNK_POSITIONS):
+                v = (self.V[chunk] @ u_steps).reshape(-1, 3, n)
+                b = self._blocks(chunk, omega, tile=(rows.start, rows.stop))
+                v = np.ascontiguousarray(v.transpose(1, 0, 2))
+                z = sym3_apply(b, v, self.exponent, n_blocks=self._jobs)
+                _scatter(out[chunk.start - first : chunk.stop - first, :n], z)
         if held:  # one product: z_t = (F V) u_t
             np.matmul(self.held_basis(rows), u[held].T, out=out[:, held.start - times.start :])
         return out
@@ -138,3 +167,15 @@ class BlockStandardization:
             self.prepare()
             self._projector = self.held_basis(slice(None)).T @ self.V
         return self._projector
+
+
+def _scatter(out: _Array, z: _Array) -> None:
+    """``out[3 i + a] = z[a, i]`` (rows 3i + a: orientation a of position i) for ``out``
+    (3 n, n_steps) of either memory order, through a view when there is one (a third of
+    the time of three strided copies into a time-major output)."""
+    view = out.reshape(-1, 3, out.shape[1])
+    if np.shares_memory(view, out):
+        view[...] = z.transpose(1, 0, 2)
+    else:  # pragma: no cover - a reshape of these outputs is always a view
+        for a in range(3):
+            out[a::3] = z[a]
