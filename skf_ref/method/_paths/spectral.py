@@ -237,8 +237,8 @@ class SpectralModel:
         if "smoothed" not in kept:
             q, theta0 = self.model.scalar("q"), self.model.scalar("theta0")
             assert q is not None and theta0 is not None  # isotropic
-            kept["smoothed"] = smoothed_weights(recursions, q, theta0)  # type: ignore[assignment]
-        return kept["smoothed"]  # type: ignore[return-value]
+            kept["smoothed"] = smoothed_weights(recursions, q, theta0)
+        return kept["smoothed"]
 
     def _prepared(self, missing: NDArray[np.bool_] | None) -> tuple[Recursions, dict[Any, Any]]:
         """The recursion and the kept standardizations of data with these missing steps."""

@@ -86,7 +86,7 @@ class SpectralRows:
         V: NDArray[np.float64],
         a: float,
         recursions: Recursions,
-        standardization: Standardization,
+        standardization: Standardization | BlockStandardization,
         xi: NDArray[np.float64],
         smoother: str | None,
         memory_limit: float | None = None,
