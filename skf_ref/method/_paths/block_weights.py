@@ -91,12 +91,13 @@ class BlockStandardization:
         if tile is not None and kept.get("tile") != tile:
             kept.clear()
             kept["tile"] = tile
-        if tile is not None and rows.start in kept:
-            return kept[rows.start]
+        key = (rows.start, rows.stop)  # a tile's weights take it whole, its z in chunks
+        if tile is not None and key in kept:
+            return kept[key]
         Vi = self.V[rows].reshape(-1, 3, self.V.shape[1])
         pairs = np.concatenate([Vi[:, a] * Vi[:, b] for a, b in SYM3_ENTRIES])
         if tile is not None:
-            kept[rows.start] = pairs
+            kept[key] = pairs
         return pairs
 
     def prepare(self) -> None:
