@@ -177,9 +177,10 @@ class BlockStandardization:
             # a few hundred positions at a time: the blocks, the means and z stay in cache
             for chunk in tiles.slices(rows.start, rows.stop, 3 * _CHUNK_POSITIONS):
                 for steps in tiles.slices(transient.start, transient.stop, _CHUNK_STEPS):
-                    v = (self.V[chunk] @ u[steps].T).reshape(-1, 3, steps.stop - steps.start)
+                    # (V u_t)[3i + a] as v[a, i, t]: one product per orientation
+                    Vi = self.V[chunk].reshape(-1, 3, self.V.shape[1]).transpose(1, 0, 2)
+                    v = np.matmul(Vi, u[steps].T)
                     b = self._blocks(chunk, steps, tile=(rows.start, rows.stop))
-                    v = np.ascontiguousarray(v.transpose(1, 0, 2))
                     z = sym3_apply(b, v, self.exponent, n_blocks=self._jobs)
                     where = slice(steps.start - times.start, steps.stop - times.start)
                     _scatter(out[chunk.start - first : chunk.stop - first, where], z)
