@@ -205,3 +205,14 @@ def test_the_dense_smoother_needs_the_prior_for_the_smoothed_weights():
     assert x.shape == (3, 6)
     with pytest.raises(ValueError, match=r"needs prior=\(Q, P0\)"):
         dense.smooth(f, "rts-smoothed-weights", eye, 0.5)
+
+
+def test_the_dense_smoother_takes_a_filter_output_with_column_weights_only():
+    # skf_ref.conformance builds mistaken filters' outputs with the weights w and no blocks
+    rng = np.random.default_rng(43)
+    L, Y = rng.standard_normal((4, 6)), rng.standard_normal((4, 3))
+    eye = np.eye(6)
+    f = dense.kalman_filter(L, Y, np.eye(4), eye, 0.1 * eye, eye, 1.25)
+    _, z = dense.smooth(f, "rts-state", eye, 1.25)
+    _, z_columns = dense.smooth({k: v for k, v in f.items() if k != "W"}, "rts-state", eye, 1.25)
+    np.testing.assert_allclose(z_columns, z, rtol=1e-12)

@@ -27,6 +27,7 @@ from .._standardization import (
     inverse_sqrt,
     raw_blocks,
     raw_weights,
+    restandardize,
     restandardize_blocks,
     standardize_smoothed,
     weight_blocks,
@@ -356,7 +357,10 @@ def smooth(
     elif smoother == "rts-state":
         # textbook RTS on the state, then z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t
         x = rts(f["x_filt"], f["P_filt"], f["P_pred"], A)
-        z = restandardize_blocks(f["W"], f["P_pred_inv_sqrt"], x)
+        if "W" in f:
+            z = restandardize_blocks(f["W"], f["P_pred_inv_sqrt"], x)
+        else:  # a filter's output with the column weights only (skf_ref.conformance's)
+            z = restandardize(f["w"], f["P_pred_inv_sqrt"], x, exponent)
     elif smoother == "rts-smoothed-weights":
         # textbook RTS on the state and its covariance P^s_t, then the smoothed state over
         # its own variance: z^s_t = W^s_t Sigma_t^{-1/2} x^s_t        docs/model.md §3
