@@ -79,7 +79,8 @@ def _misleading(case, shown, theirs, scales):
     wrong = []
     for name in shown:
         outputs = next(s for s in SUSPECTS if s.name == name).compute(case)
-        far = max(distance(theirs[k], outputs[k], scales[k]) for k in OUTPUTS)
+        floor = {"log_likelihood": scales["log_likelihood"]}
+        far = max(distance(theirs[k], outputs[k], floor.get(k, 0.0)) for k in OUTPUTS)
         if not far <= FACTOR * case.tolerance:
             wrong.append(name)
     return wrong

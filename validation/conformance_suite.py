@@ -12,6 +12,13 @@ runner ``run_cases.m`` in GNU Octave on ``validation/octave/skf_plain.m`` (an SK
 docs/model.md in MATLAB) and the Python runner ``run_cases.py`` on ``skf_ref``'s own SKF, and
 compares every output. It needs ``octave`` on the path (Debian: ``apt-get install octave``).
 
+``python -m validation.conformance_suite float32`` measures correct SKFs computing in single
+precision, by algorithm: the package's (Cholesky solves, ``eigh``), a plain covariance-form
+loop, Joseph's form, a loop counting from 1 with explicit inverses, and the information
+form (validation/skf_from_the_docs.py, validation/skf_independent.py), against each pinned
+case, in ``compare``'s measure. The float32 tolerance and ``compare``'s float32 hint rest
+on these ranges.
+
 ``--write`` also writes the tables to ``validation/conformance_suite.md``. Exit status 0 when
 every check holds.
 """
@@ -26,7 +33,14 @@ from pathlib import Path
 import numpy as np
 from scipy import linalg
 
-__all__ = ["main", "precision_table", "reference", "runners_table", "variant"]
+__all__ = [
+    "float32_table",
+    "main",
+    "precision_table",
+    "reference",
+    "runners_table",
+    "variant",
+]
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "conformance_suite.md"
@@ -223,6 +237,61 @@ def _markdown(rows):
     return "\n".join(lines)
 
 
+def _float32_runs(case):
+    """Each float32 SKF's outputs on the case, by algorithm."""
+    from .skf_from_the_docs import SKF, case_matrices, run_case
+    from .skf_independent import CORRECT
+
+    arguments, _ = case_matrices(case, SKF())
+    n = case.shape[0]
+    for key, name in (("P0", "theta0"), ("Q", "q")):
+        value = case.inputs[name]
+        arguments[key] = value * np.eye(n) if np.ndim(value) == 0 else value
+    yield "package (solve, eigh)", variant(case, dtype=np.float32)
+    yield "covariance form", run_case(case, SKF(np.float32))
+    labels = {"joseph": "Joseph form", "one_based": "1-based, inv", "information": "information"}
+    for name, skf in CORRECT.items():
+        yield labels[name], skf(**arguments, dtype=np.float32)
+
+
+def float32_table():
+    """Every pinned case: how far each float32 SKF is from it, in compare's measure.
+
+    Arrays: ``max|difference| / max|expected|``; the log-likelihood over the sum of its
+    terms' sizes. The largest over the six outputs.
+
+    Returns
+    -------
+    rows : list of dict
+    ranges : dict
+        Per algorithm, the smallest and largest over the well-conditioned cases, and the
+        value on ``ill_conditioned``.
+    """
+    from skf_ref.conformance import cases
+    from skf_ref.conformance.intermediates import expected_intermediates, scales
+
+    rows = []
+    for case in cases():
+        expected = {**case.expected, **expected_intermediates(case)}
+        scale = scales(case, expected)
+        row = {"case": case.name}
+        with np.errstate(all="ignore"):
+            for name, outputs in _float32_runs(case):
+                row[name] = max(
+                    float(np.max(np.abs(np.asarray(outputs[k], dtype=float) - expected[k])))
+                    / scale[k]
+                    for k in OUTPUTS
+                )
+        rows.append(row)
+    ranges = {}
+    for name in rows[0]:
+        if name != "case":
+            good = [row[name] for row in rows if row["case"] != "ill_conditioned"]
+            ill = next(row[name] for row in rows if row["case"] == "ill_conditioned")
+            ranges[name] = (min(good), max(good), ill)
+    return rows, ranges
+
+
 def runners_table(octave="octave"):
     """Export the suite, run both runners, compare every case.
 
@@ -280,7 +349,7 @@ def runners_table(octave="octave"):
 def main(argv=None):
     """The command line; returns the exit status."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("what", choices=("precision", "runners", "all"))
+    parser.add_argument("what", choices=("precision", "float32", "runners", "all"))
     parser.add_argument("--write", action="store_true", help=f"write {RESULTS.name}")
     args = parser.parse_args(argv)
     sections, status = [], 0
@@ -293,6 +362,20 @@ def main(argv=None):
             "largest over the outputs of max|difference| / max|expected|.\n\n" + _markdown(rows)
         )
         status |= not holds
+    if args.what in ("float32", "all"):
+        rows, ranges = float32_table()
+        lines = [
+            f"| {name} | {low:.1e} to {high:.1e} | {ill:.1e} |"
+            for name, (low, high, ill) in ranges.items()
+        ]
+        sections.append(
+            "## Single precision, by algorithm\n\nCorrect SKFs computing in float32 against "
+            "each pinned case, in `compare`'s measure (arrays over `max|expected|`, the "
+            "log-likelihood over the sum of its terms' sizes), the largest over the six "
+            "outputs.\n\n" + _markdown(rows) + "\n\nRanges over the twelve "
+            "well-conditioned cases, and `ill_conditioned`:\n\n| algorithm | "
+            "well-conditioned | ill_conditioned |\n|---|---|---|\n" + "\n".join(lines)
+        )
     if args.what in ("runners", "all"):
         rows, holds = runners_table()
         sections.append(

@@ -1,11 +1,17 @@
 """How far their numbers are from another set, per output, and when a known mistake explains them.
 
-Every quantity is measured against its own scale, the same whichever set it is compared
-with: ``max|expected|`` over the whole array for an array, and for the log-likelihood the
-sum of the sizes of its terms (:func:`~skf_ref.conformance.intermediates.log_likelihood_scale`),
-so that a log-likelihood near zero, whose terms cancel, does not make every difference
-look large. The distance of one output is the largest difference over its entries divided
-by that scale; at one step, the largest over the step's entries.
+Two measures, for two questions:
+
+- **Against the expected outputs** (:func:`relative_steps`): the verdict of each output and
+  the first divergence. A quantity is measured against its own expected scale:
+  ``max|expected|`` over the whole array, and for the log-likelihood the sum of the sizes of
+  its terms (:func:`~skf_ref.conformance.intermediates.log_likelihood_scale`), so that a
+  log-likelihood near zero, whose terms cancel, does not make every difference look large.
+- **Between two sets** (:func:`distance`): how far their numbers are from a known mistake's,
+  and, in the same measure, from the expected ones: ``max|a - b|`` over the larger of
+  ``max|a|`` and ``max|b|`` (for the log-likelihood, over the larger of those and its terms'
+  sizes). Two sets that are both small next to the expected outputs are not close for that:
+  they are as far apart as they are from each other.
 
 **When a known mistake is named** (:func:`explains`). Let ``tol`` be the tolerance their
 numbers support (the comparison's, or more for float32 numbers or printed digits),
@@ -17,10 +23,11 @@ from the mistake's. The mistake
   within ``FACTOR`` times the tolerance, or ``NEARER`` times nearer to theirs than the
   expected output is. On an output that agrees (``D_k <= tol``) this asks for
   ``d_k <= FACTOR tol``: a mistake that would change an output they got right explains
-  nothing.
+  nothing. Numbers that are not finite are explained by no mistake.
 
 Otherwise it is not named, however near it comes. The rule and its two factors were fixed
-before the evaluation that judges them (validation/conformance_mistakes.md).
+before the evaluation that judges them (validation/conformance_mistakes.md, which also
+records the one amendment: the measure between two sets).
 """
 
 from __future__ import annotations
@@ -94,20 +101,28 @@ def relative_steps(
     return by_row.max(axis=0) / scale, np.argmax(by_row, axis=0)
 
 
-def distance(value: Any, reference: Any, scale: float) -> float:
-    """The largest difference over the entries, over ``scale``; infinite for another shape.
+def distance(value: Any, reference: Any, floor: float = 0.0) -> float:
+    """``max|value - reference|`` over the larger of their sizes (and ``floor``).
+
+    Symmetric; 0 for equal sets, at most 2 for sets of one sign; infinite for another shape
+    or numbers that are not finite. ``floor`` is the log-likelihood's own scale.
 
     Examples
     --------
-    >>> distance([1.0, 2.0], [1.0, 2.5], 2.5)
+    >>> distance([1.0, 2.0], [1.0, 2.5])
     0.2
-    >>> distance([1.0, 2.0], [[1.0, 2.0]], 1.0)
+    >>> distance([1e-6, 0.0], [0.0, 1e-6])  # both small, yet as far apart as can be
+    1.0
+    >>> distance(-0.25, -0.5, floor=100.0)  # a log-likelihood near zero, its terms near 100
+    0.0025
+    >>> distance([1.0, 2.0], [[1.0, 2.0]])
     inf
     """
     value, reference = _compared(value, reference)
-    if value.shape != reference.shape:
+    if value.shape != reference.shape or not np.isfinite([*value.flat, *reference.flat]).all():
         return float("inf")
-    return float(np.max(relative_steps(value, reference, scale, per_step=False)[0]))
+    size = max(floor, float(np.max(np.abs(value))), float(np.max(np.abs(reference))))
+    return float(np.max(np.abs(value - reference)) / (size or 1.0))
 
 
 def reproduces(to_suspect: Mapping[str, float], tolerance: float) -> bool:
@@ -151,5 +166,6 @@ def explains(
     False
     """
     return all(
-        d <= max(FACTOR * tolerance, to_expected[name] / NEARER) for name, d in to_suspect.items()
+        np.isfinite(d) and d <= max(FACTOR * tolerance, to_expected[name] / NEARER)
+        for name, d in to_suspect.items()
     )
