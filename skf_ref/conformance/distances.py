@@ -57,7 +57,7 @@ def _compared(value: Any, reference: Any) -> tuple[NDArray[np.float64], NDArray[
     """``value`` and ``reference`` of one shape: a covariance given by its diagonal is
     compared with the reference's diagonal."""
     value, reference = np.asarray(value, dtype=float), np.asarray(reference, dtype=float)
-    if value.ndim == 2 and reference.ndim == 3 and value.shape != reference.shape[1:]:
+    if value.ndim == 2 and reference.ndim == 3:
         reference = np.diagonal(reference, axis1=0, axis2=1).T  # (n, n, T) -> (n, T)
     return value, reference
 
