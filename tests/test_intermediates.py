@@ -7,12 +7,11 @@ import pytest
 from skf_ref.conformance import cases
 from skf_ref.conformance.distances import FACTOR, NEARER, distance, explains, reproduces
 from skf_ref.conformance.divergence import first_divergence, upstream
+from skf_ref.conformance.expected import expected_intermediates, scales
 from skf_ref.conformance.intermediates import (
     INTERMEDIATES,
     QUANTITIES,
-    expected_intermediates,
     production_order,
-    scales,
     variables,
 )
 

@@ -59,7 +59,7 @@ def _given(variables, mode, case):
 
 
 def _expected(case):
-    from skf_ref.conformance.intermediates import expected_intermediates, scales
+    from skf_ref.conformance.expected import expected_intermediates, scales
 
     expected = {**case.expected, **expected_intermediates(case)}
     return expected, scales(case, expected)
