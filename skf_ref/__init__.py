@@ -17,6 +17,8 @@ The package in layers, each importing only those listed before it:
   readers and writers, outputs larger than memory (MNE, zarr and Dask are optional);
 - :mod:`skf_ref.conformance`: cross-checking another implementation: the cases,
   :func:`compare` and the catalogue of known mistakes;
+- :mod:`skf_ref.datasets`: real median-nerve SEP recordings as MNE objects (evoked, forward,
+  noise covariance), and the same steps for a user's own recording;
 - :mod:`skf_ref.study`: the paper's P20/N20 study: head models, the scenario, metrics,
   figures, sweeps, MNE's inverse methods beside the SKF, the demo;
 - :mod:`skf_ref.cli`: the ``skf-ref`` command line.
@@ -54,6 +56,7 @@ _HOMES = {
     "read_skf_stream": "io",
     "write_skf_operator": "io",
     "compare": "conformance.compare",
+    "sys_info": "_utils.sys_info",
 }
 
 __all__ = [*_HOMES, "__version__"]

@@ -7,7 +7,7 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "skf_ref"
 #: The layers, lowest first: a module may import its own layer and those before it.
-LAYERS = ("_utils", "method", "io", "conformance", "study", "cli")
+LAYERS = ("_utils", "method", "io", "conformance", "datasets", "study", "cli")
 #: Imports that reach up, each with its reason: none. (The result type's conveniences
 #: ``to_stc``, ``to_zarr`` and ``to_dask`` were the last; ``skf_ref.io`` is their one route.)
 UPWARD: dict[tuple[str, ...], set[tuple[str, ...]]] = {}

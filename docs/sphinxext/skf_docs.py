@@ -31,6 +31,7 @@ PUBLIC_MODULES = (
     "skf_ref.method",
     "skf_ref.io",
     "skf_ref.conformance",
+    "skf_ref.datasets",
     "skf_ref.study",
     "skf_ref.study.baselines",
     "skf_ref.study.demo",

@@ -1,0 +1,119 @@
+"""What agreement with physiology means on the real SEPs, fixed before any method ran on them.
+
+Committed in its own commit, before the analysis (``python -m validation.real_sep``) read a
+single estimate: the report prints :data:`CRITERIA` first, then each method's numbers
+against it. Every rule below uses the sensor data (latencies) and the electrodes' geometry
+only, never an estimate.
+"""
+
+#: Depth under the scalp of the point the N20 should come from (m): area 3b's hand area lies
+#: in the posterior bank of the central sulcus, 20-30 mm under the scalp over C3-CP3.
+CENTRAL_DEPTH = 0.025
+#: Radius of the central region around that point (m): the spread between subjects of the
+#: hand area under the 10-10 electrodes, and the resolution of either source space.
+CENTRAL_RADIUS = 0.020
+#: A source is deep at most this far from the centre of the sphere fitted to the electrodes
+#: (m): thalamus, basal ganglia, insula, cingulate and medial temporal structures lie
+#: within it; the cortex of the convexity, the central sulcus included, 55-80 mm out.
+DEEP_RADIUS = 0.040
+#: The documented N20 latencies (s): "about 24 ms" for A0206 (the data's README), the GFP
+#: peak at 19.3 ms for the 256-channel recording (spharapy's examples mark 19 ms).
+N20_NEAR = {"A0206": 0.024, "sep256": 0.0193}
+#: The P14 is looked for this long before the N20 (s): the P14-N20 interval is 5-6 ms in
+#: healthy adults.
+P14_BEFORE_N20 = (0.008, 0.004)
+#: The direction of the C3-CP3 midpoint from the centre of an ideal spherical 10-10 cap
+#: (MNE's ``easycap-M1`` montage, on a sphere about the origin): used where the cap has no
+#: 10-10 labels (the 256-channel recording). A0206's own C3 and CP3 give a direction 3
+#: degrees from it.
+CENTRAL_MONTAGE = "easycap-M1"
+#: The criteria, in the report's words.
+CRITERIA = """\
+### The criteria, written before the numbers
+
+**What physiology says** (not these recordings): after stimulation of the right median
+nerve, the N20 is generated in the contralateral (left) primary somatosensory cortex, area
+3b, on the posterior wall of the central sulcus in the hand area, by a mostly tangential
+dipole (hence the negativity over the parietal and the positivity over the frontal scalp).
+The P14 is subcortical (medial lemniscus, from the brainstem to the thalamus); the P16/P18
+are deep (thalamic and subcortical). A method agrees with physiology where its maxima say
+the same.
+
+**Geometry** (MNE's head-frame axes, x to the right, y to the front, z up, in metres; from
+the electrodes only):
+
+- *the head's centre* `c` and radius: the sphere MNE fits to the recording's electrodes
+  (`mne.bem.fit_sphere_to_headshape(info, dig_kinds=("eeg",))`);
+- *left hemisphere*: x < x of `c`;
+- *the central region under C3/CP3*: the positions within 20 mm of the point `p*` 25 mm
+  under the scalp below the midpoint of C3 and CP3: `p* = c + (|m - c| - 25 mm) u`,
+  `u = (m - c) / |m - c|`, `m` that midpoint (A0206: its own electrodes; the 256-channel cap,
+  which has no 10-10 labels: `u` the direction of the C3-CP3 midpoint on MNE's ideal
+  spherical `easycap-M1` cap and `|m - c|` the fitted radius). The distance to the region is
+  `max(0, |r - p*| - 20 mm)`;
+- *deep*: at most 40 mm from `c`.
+
+**Latencies** (from the global field power, GFP, of the sensor data only): *N20* the GFP
+peak nearest the documented latency (A0206 24 ms, 256 channels 19.3 ms); *P14* the largest
+GFP peak from 8 to 4 ms before the N20; *P16* halfway between the P14 and the N20.
+
+**Amplitude and maximum**: at each position the estimate's absolute value (fixed
+orientation) or norm over its three orientations (free), at one sample; the maximum is the
+position of the largest amplitude. Units differ between methods (A m, F, z values):
+positions are compared, never amplitudes.
+
+**Agreement, per method and recording** (five checks):
+
+1. N20 left: the maximum at the N20 is in the left hemisphere;
+2. N20 central: it is in the central region under C3/CP3;
+3. N20 cortical: it is not deep;
+4. P14 deep: the maximum at the P14 is deep;
+5. P16 deep: the maximum at the P16 is deep.
+
+For A0206 the axis of the source at the N20 maximum is reported (each FEM position has one
+Cartesian axis; area 3b's dipole is tangential: at more than 60 degrees from `u`), not
+scored. The time courses shown are those of the N20 maximum, of the largest deep source at
+the P14, and of the largest amplitude in the central and the deep regions.
+
+**What is compared**: the SKF at the paper's setting and at the recommended one, each with
+priors chosen by the data (the marginal likelihood, PM-SNR and EP-SNR in -20 ... 40 dB) and
+at fixed priors (PM 0 / EP 20 dB, the paper's for its smoother; PM 0 / EP 0 dB); MNE's
+MNE, dSPM, sLORETA and eLORETA with lambda2 by the discrepancy principle (the whitened
+residual of the minimum-norm estimate over the post-stimulus samples equals its expected
+value, the noise rank times the number of samples; the same lambda2 for the four) and at
+lambda2 = 1/9; LCMV (MNE's defaults: reg 0.05, unit-noise-gain; data covariance of the
+average from 0 ms on); MxNE with alpha by SURE (data-driven) and at 50 % of alpha_max. The
+minimum-norm methods run without depth weighting (MNE refuses it on a forward that was
+never free, as A0206's FEM; the same on the sphere), MxNE at MNE's default depth (0.8).
+Noise covariance: the average's baseline (A0206 -100 ... -20 ms, 256 channels -50 ... 0
+ms), 10 % regularized, in MNE's convention with `nave`; the methods that ignore `nave`
+(the SKF today, LCMV, MxNE) get the covariance of the average itself.
+
+**Contrasts named before the numbers**: (a) the SKF at the recommended setting against the
+paper's; (b) the SKF at the recommended setting (priors chosen by the data) against the
+best of MNE's methods with lambda2 by the discrepancy principle, by the number of checks
+met and then by the N20 maximum's distance to the central region. Two recordings (one
+with its own head model), one estimate each: no statistics, no claim beyond them.
+
+### What cannot be known here
+
+- **The truth.** No recording comes with its generators: agreement with physiology is the
+  only reference, and the physiology is of populations, not of these subjects.
+- **The FEM is the source's.** A0206's lead field, its source space and its conductivities
+  were computed by the feCNN authors (duneuro); they cannot be varied or checked here, and
+  every method inherits their errors alike.
+- **One orientation per position** in A0206's FEM source space (5046 positions, each with
+  one Cartesian axis): no position can hold the N20's tangential dipole at its own
+  orientation; a maximum lands on a neighbour whose axis explains the field, a few mm off.
+- **The source space's extent.** The FEM's sources stop 68 mm below the head's centre; whether
+  they reach the brainstem, where the P14 begins, is not documented.
+- **The sphere is crude.** The 256-channel recording has no MRI: a three-shell sphere fitted
+  to the cap, a 10 mm volume grid inside it, a cap without fiducials (its axes are its own).
+- **Three subjects, one head model.** A1974 and A1999 have no lead field: only their sensor
+  data are checked (the N20's latency and topography).
+- **The P14 and P16 are weak.** They are far fields of small deep generators, at a tenth of
+  the N20's power or less; a maximum at their latency may be the N20's onset or noise.
+- **The high-pass.** A0206's 20 Hz high-pass (zero-phase) shapes every deflection and
+  spreads the stimulus artifact backwards in time; the 256-channel recording is high-passed
+  at 2 Hz.
+"""
