@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from skf_ref.conformance import cases
-from skf_ref.conformance.distances import FACTOR, NEARER, distance, explains, reproduces
-from skf_ref.conformance.divergence import first_divergence, upstream
-from skf_ref.conformance.expected import expected_intermediates, scales
-from skf_ref.conformance.intermediates import (
+from skf_ref.conformance._distances import FACTOR, NEARER, distance, explains, reproduces
+from skf_ref.conformance._divergence import first_divergence, upstream
+from skf_ref.conformance._expected import expected_intermediates, scales
+from skf_ref.conformance._intermediates import (
     INTERMEDIATES,
     QUANTITIES,
     production_order,

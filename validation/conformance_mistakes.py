@@ -52,14 +52,14 @@ def _given(variables, mode, case):
     """What the implementation hands to compare in ``mode``."""
     if mode == "outputs":
         return {name: variables[name] for name in OUTPUTS}
-    from skf_ref.conformance.intermediates import variables as defined
+    from skf_ref.conformance._intermediates import variables as defined
 
     names = defined(case.inputs["smoother"])
     return {name: value for name, value in variables.items() if name in names}
 
 
 def _expected(case):
-    from skf_ref.conformance.expected import expected_intermediates, scales
+    from skf_ref.conformance._expected import expected_intermediates, scales
 
     expected = {**case.expected, **expected_intermediates(case)}
     return expected, scales(case, expected)
@@ -73,7 +73,7 @@ def _shown(result):
 
 def _misleading(case, shown, theirs, scales):
     """The shown suspects whose outputs do not reproduce theirs within FACTOR tolerances."""
-    from skf_ref.conformance.distances import distance
+    from skf_ref.conformance._distances import distance
     from skf_ref.conformance.mistakes import SUSPECTS
 
     wrong = []

@@ -268,7 +268,7 @@ def float32_table():
         value on ``ill_conditioned``.
     """
     from skf_ref.conformance import cases
-    from skf_ref.conformance.expected import expected_intermediates, scales
+    from skf_ref.conformance._expected import expected_intermediates, scales
 
     rows = []
     for case in cases():

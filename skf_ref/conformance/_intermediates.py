@@ -3,7 +3,7 @@
 An implementation under test may give, besides its six outputs, any of the quantities it
 computes on the way (the variables below); :func:`skf_ref.compare` then names the first of
 them that leaves the tolerance, and the equation of docs/model.md that computes it
-(:mod:`skf_ref.conformance.divergence`). Every per-step array has time as its last axis,
+(:mod:`skf_ref.conformance._divergence`). Every per-step array has time as its last axis,
 as the outputs have: ``x_pred`` is (n_sources, n_times), ``P_pred`` is
 (n_sources, n_sources, n_times), MATLAB's ``P_pred(:, :, t)``. A covariance may be given as
 its diagonal instead, (n_sources, n_times).

@@ -1,6 +1,6 @@
 """Where an implementation first leaves the tolerance: the quantity, its equation, step and row.
 
-The variables given (outputs and intermediates, :mod:`skf_ref.conformance.intermediates`)
+The variables given (outputs and intermediates, :mod:`skf_ref.conformance._intermediates`)
 are taken in the order the equations produce them, step by step; the first whose
 difference at a step exceeds the tolerance is the *first divergence*. Everything given
 that the equations produce before it agrees, so the mistake lies in it or in a quantity
@@ -8,7 +8,7 @@ computed before it that was not given: those are listed (``not_given``), for the
 to give.
 
 Each difference is relative to the quantity's own scale
-(:func:`skf_ref.conformance.distances.relative_steps`).
+(:func:`skf_ref.conformance._distances.relative_steps`).
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from .distances import relative_steps
-from .intermediates import Variable, production_order, variables
+from ._distances import relative_steps
+from ._intermediates import Variable, production_order, variables
 
 __all__ = ["Divergence", "first_divergence", "upstream"]
 
@@ -32,7 +32,7 @@ class Divergence:
     Attributes
     ----------
     quantity : str
-        One of :data:`~skf_ref.conformance.intermediates.QUANTITIES`.
+        One of :data:`~skf_ref.conformance._intermediates.QUANTITIES`.
     output : str
         The variable (``P_filt``, ``z``, ...).
     equation : str
@@ -95,7 +95,7 @@ def upstream(name: str, defined: Mapping[str, Variable]) -> list[str]:
 
     Examples
     --------
-    >>> from skf_ref.conformance.intermediates import variables
+    >>> from skf_ref.conformance._intermediates import variables
     >>> upstream("weights", variables(None))
     ['theta0', 'q', 'P_pred', 'S', 'K', 'P_filt', 'w']
     """
@@ -123,7 +123,7 @@ def first_divergence(
     ----------
     given : mapping
         Their variables by name (outputs as compared: a transposed one transposed back),
-        any of those :func:`~skf_ref.conformance.intermediates.variables` defines for the
+        any of those :func:`~skf_ref.conformance._intermediates.variables` defines for the
         smoother; others are left out.
     expected : mapping
         The expected value of each.

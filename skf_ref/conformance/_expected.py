@@ -3,7 +3,7 @@
 The dense path computes them (docs/model.md §2-§3): the forward pass keeps every mean and
 covariance (:func:`skf_ref.method._paths.dense.kalman_filter`), each step's ``S_t`` and
 ``K_t`` are its update again, and the smoother's gains and covariances follow §2.3 eq. (4).
-:mod:`skf_ref.conformance.intermediates` says what each variable is; the comparison
+:mod:`skf_ref.conformance._intermediates` says what each variable is; the comparison
 measures each against the scale :func:`scales` gives it.
 """
 

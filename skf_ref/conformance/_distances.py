@@ -5,7 +5,7 @@ Two measures, for two questions:
 - **Against the expected outputs** (:func:`relative_steps`): the verdict of each output and
   the first divergence. A quantity is measured against its own expected scale:
   ``max|expected|`` over the whole array, and for the log-likelihood the sum of the sizes of
-  its terms (:func:`~skf_ref.conformance.intermediates.log_likelihood_scale`), so that a
+  its terms (:func:`~skf_ref.conformance._intermediates.log_likelihood_scale`), so that a
   log-likelihood near zero, whose terms cancel, does not make every difference look large.
 - **Between two sets** (:func:`distance`): how far their numbers are from a known mistake's,
   and, in the same measure, from the expected ones: ``max|a - b|`` over the larger of
