@@ -390,6 +390,29 @@ def test_the_python_runner_as_shipped_and_with_a_mistake(tmp_path, exported, cap
     assert "Likely cause: exponent_fixed_at_half" in out
 
 
+def test_the_python_runner_saves_the_intermediates_its_function_returns(
+    tmp_path, exported, capsys
+):
+    runner = _python_runner()
+
+    def with_prediction(L, Y, R, A, Q, P0, exponent, smoother):  # P_pred, Q added twice at 2
+        outputs = runner.my_skf(L, Y, R, A, Q, P0, exponent, smoother)
+        P, P_pred = P0, []
+        for t in range(Y.shape[1]):
+            P_t = A @ P @ A.T + Q * (2 if t == 1 else 1)
+            K = np.linalg.solve(L @ P_t @ L.T + R, L @ P_t).T
+            P = P_t - K @ L @ P_t
+            P_pred.append(P_t)
+        return outputs | {"P_pred": np.stack(P_pred, axis=-1), "mine": 1.0}
+
+    done = runner.run(exported, tmp_path / "mine", with_prediction)
+    assert sorted(np.load(done[0][1]).files) == sorted([*OUTPUTS, "P_pred"])
+    capsys.readouterr()
+    assert runner.compare_all(done[:1]) == 1
+    out = capsys.readouterr().out
+    assert "First divergence: prediction (P_pred) at step 2" in out
+
+
 # --- the command line -------------------------------------------------------------------------
 
 

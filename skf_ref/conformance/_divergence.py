@@ -72,9 +72,11 @@ class Divergence:
         """The divergence in words, a line or two for the report."""
         where = "" if self.step is None else f" at step {self.step}"
         where += "" if self.source is None else f", row {self.source}"
+        named = (
+            self.quantity if self.output == self.quantity else f"{self.quantity} ({self.output})"
+        )
         lines = [
-            f"First divergence: {self.quantity} ({self.output}){where}, off by "
-            f"{self.difference:.1e}: {self.equation}."
+            f"First divergence: {named}{where}, off by {self.difference:.1e}: {self.equation}."
         ]
         if self.not_given:
             lines.append(

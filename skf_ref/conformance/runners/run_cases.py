@@ -11,8 +11,11 @@ CASE_DIR is a folder ``skf-ref conformance export`` wrote. For each case listed 
 
 and saves what it returns to ``OUT_DIR/<case>.npz``. FUNCTION returns a mapping with any of
 ``z``, ``z_filtered``, ``x``, ``x_filtered``, ``weights`` (arrays of shape
-(n_sources, n_times)) and ``log_likelihood``; ``smoother`` is ``"none"``,
-``"rts-standardized"`` or ``"rts-state"``. Without ``--skf`` it runs ``skf_ref``'s own
+(n_sources, n_times)) and ``log_likelihood``, and any of the intermediate quantities it
+computes (:data:`INTERMEDIATES`, their shapes in the suite's docs/conformance.md: ``P_pred``
+is (n_sources, n_sources, n_times), time last), which ``compare`` uses to name the first
+quantity that goes wrong; ``smoother`` is ``"none"``, ``"rts-standardized"``,
+``"rts-state"`` or ``"rts-smoothed-weights"``. Without ``--skf`` it runs ``skf_ref``'s own
 SKF: replace :func:`my_skf` with yours, or name yours with ``--skf`` (MODULE is imported
 from the current folder or the Python path).
 
@@ -34,6 +37,11 @@ from pathlib import Path
 import numpy as np
 
 OUTPUTS = ("z", "z_filtered", "x", "x_filtered", "weights", "log_likelihood")
+#: What FUNCTION may return besides the outputs: saved too, for compare's first divergence.
+INTERMEDIATES = (
+    *("theta0", "q", "x_pred", "P_pred", "S", "K", "P_filt", "w"),
+    *("G", "P_smooth", "Sigma", "w_smooth"),
+)
 
 
 def my_skf(L, Y, R, A, Q, P0, exponent, smoother):
@@ -92,7 +100,8 @@ def run(case_dir, out_dir, skf):
     for case in names:
         case_file, out_file = case_dir / f"{case}.npz", out_dir / f"{case}.npz"
         outputs = skf(**read_case(case_file))
-        np.savez(out_file, **{name: outputs[name] for name in OUTPUTS if name in outputs})
+        kept = [name for name in OUTPUTS + INTERMEDIATES if name in outputs]
+        np.savez(out_file, **{name: outputs[name] for name in kept})
         done.append((case_file, out_file))
     return done
 
