@@ -13,7 +13,7 @@ Each difference is relative to the quantity's own scale
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,7 +45,8 @@ class Divergence:
     difference : float
         The difference at that step, relative to the quantity's scale.
     not_given : tuple of str
-        The variables it is computed from, directly or not, that were not given.
+        The variables it is computed from, directly or through others not given, that were
+        not given: where the mistake may lie, besides in ``output`` itself.
     """
 
     quantity: str
@@ -92,14 +93,19 @@ class Divergence:
         return lines
 
 
-def upstream(name: str, defined: Mapping[str, Variable]) -> list[str]:
+def upstream(name: str, defined: Mapping[str, Variable], given: Collection[str] = ()) -> list[str]:
     """Every variable ``name`` is computed from, directly or not, in production order.
+
+    The search stops at the variables ``given``: what they are computed from reaches
+    ``name`` only through them.
 
     Examples
     --------
     >>> from skf_ref.conformance._intermediates import variables
     >>> upstream("weights", variables(None))
     ['theta0', 'q', 'P_pred', 'S', 'K', 'P_filt', 'w']
+    >>> upstream("w", variables(None), given=["P_pred", "K"])
+    ['P_pred', 'S', 'K']
     """
     found: set[str] = set()
     todo = list(defined[name].inputs)
@@ -107,7 +113,7 @@ def upstream(name: str, defined: Mapping[str, Variable]) -> list[str]:
         here = todo.pop()
         if here in defined and here not in found:
             found.add(here)
-            todo += defined[here].inputs
+            todo += [] if here in given else defined[here].inputs
     return [other for other in defined if other in found and other != name]
 
 
@@ -166,6 +172,6 @@ def first_divergence(
             step=step,
             source=None if np.ndim(given[name]) == 0 else int(rows[index]) + 1,
             difference=float(differences[index]),
-            not_given=tuple(n for n in upstream(name, defined) if n not in given),
+            not_given=tuple(n for n in upstream(name, defined, given) if n not in given),
         )
     return None
