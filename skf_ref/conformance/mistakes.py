@@ -241,7 +241,8 @@ def noise_variance_as_std(case: Case) -> dict[str, Any] | None:
 
 
 def transition_ignored(case: Case) -> dict[str, Any] | None:
-    """§2.2 eq. (4) with ``A = I`` whatever the transition (the toolbox: any diagonal ``A``)."""
+    """§2.2 eq. (4) with ``A = I`` whatever the transition (the toolbox, when ``A`` is
+    diagonal with some diagonal entry exactly 1)."""
     A = case.inputs["transition"]
     if np.array_equal(A, np.eye(case.shape[0]) if np.ndim(A) else 1.0):
         return None
