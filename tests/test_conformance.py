@@ -381,8 +381,10 @@ def test_the_python_runner_as_shipped_and_with_a_mistake(tmp_path, exported, cap
         return runner.my_skf(L, Y, R, A, Q, P0, 0.5, smoother)
 
     done = runner.run(exported, tmp_path / "half", half)
-    assert len(done) == len(CASES)
-    capsys.readouterr()
+    assert len(done) == len(CASES) - 1  # no standardize parameter: "position" is skipped
+    assert "position                 skipped: it standardizes each position" in (
+        capsys.readouterr().out
+    )
     assert runner.compare_all(done[:3]) == 1  # three cases are enough to hear the name
     out = capsys.readouterr().out
     assert "original_skf             agrees" in out  # alpha is 0.5 there

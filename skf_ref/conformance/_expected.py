@@ -18,6 +18,7 @@ from scipy import linalg
 
 from ..method import StateSpaceModel
 from ..method._paths import dense
+from ..method._standardization import inverse_sqrt
 
 __all__ = ["expected_intermediates", "expected_variables", "log_likelihood_scale", "scales"]
 
@@ -60,7 +61,8 @@ def expected_intermediates(case: Any) -> dict[str, Any]:
     -------
     dict
         ``theta0`` and ``q`` as the case gives them; ``x_pred``, ``P_pred``, ``S``, ``K``,
-        ``P_filt``, ``w`` with time last; with a smoother also ``G`` and ``P_smooth``.
+        ``P_filt``, ``w`` with time last; with a smoother also ``G`` and ``P_smooth``; with
+        ``"rts-smoothed-weights"`` also ``Sigma`` and ``w_smooth``.
         The outputs are the case's own (``case.expected``).
 
     Examples
@@ -72,7 +74,9 @@ def expected_intermediates(case: Any) -> dict[str, Any]:
     """
     model, Y = _model(case)
     A, Q, P0 = (model.matrix(name) for name in ("transition", "q", "theta0"))
-    f = dense.kalman_filter(model.L, Y, model.R, A, Q, P0, case.inputs["exponent"])
+    p = case.inputs
+    block = int(p.get("n_orient", 1)) if p.get("standardize") == "position" else 1
+    f = dense.kalman_filter(model.L, Y, model.R, A, Q, P0, p["exponent"], block)
     S, K = [], []
     for t in range(Y.shape[1]):
         _, _, K_t, S_t, _ = dense.update(f["x_pred"][t], f["P_pred"][t], Y[:, t], model.L, model.R)
@@ -84,7 +88,19 @@ def expected_intermediates(case: Any) -> dict[str, Any]:
     if case.inputs["smoother"] is not None:
         G, P_smooth = _rts_covariances(f, A)
         found |= {"G": _steps_last(G), "P_smooth": _steps_last(P_smooth)}
+    if case.inputs["smoother"] == "rts-smoothed-weights":
+        Sigma = dense.prior_covariances(A, Q, P0, Y.shape[1])
+        found |= {"Sigma": _steps_last(Sigma), "w_smooth": _smoothed_raw_weights(Sigma, P_smooth)}
     return found
+
+
+def _smoothed_raw_weights(Sigma: NDArray[np.float64], P_smooth: NDArray[np.float64]) -> Any:
+    """``w^s_t``, diag(``Sigma_t^{-1/2} (Sigma_t - P^s_t) Sigma_t^{-1/2}``), time last."""
+    w = np.empty(Sigma.shape[:2])
+    for t in range(len(Sigma)):
+        root = inverse_sqrt(Sigma[t])
+        w[t] = np.diag(root @ (Sigma[t] - P_smooth[t]) @ root)
+    return _steps_last(w)
 
 
 def log_likelihood_scale(S: NDArray[np.float64], x_pred: NDArray[np.float64], case: Any) -> float:

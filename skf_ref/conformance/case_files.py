@@ -11,10 +11,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._utils.atomic_files import atomic_path, check_output_path
-from .._utils.checks import InputError, check_array, check_instance
+from .._utils.checks import InputError, check_array, check_choice, check_instance
 from ..method._result import readonly
 from ..method._settings import check_smoother
-from .cases import EXTRAS, INPUTS, OUTPUTS, Case, as_value
+from .cases import EXTRAS, INPUTS, OPTIONS, OUTPUTS, Case, as_value
 
 __all__ = ["FORMATS", "read_case", "write_case"]
 
@@ -87,6 +87,23 @@ def _scalar_or_square(variables, name, path, n):
     return readonly(check_array(f"{path}: {name}", value, (n, n)))
 
 
+def _options(variables, path, n):
+    """``standardize`` and ``n_orient`` (version 3 on); a file of version 2 has neither."""
+    found = dict(OPTIONS)
+    if "standardize" in variables:
+        found["standardize"] = check_choice(
+            f"{path}: standardize", _text(variables, "standardize", path), ("column", "position")
+        )
+    if "n_orient" in variables:
+        n_orient = int(check_array(f"{path}: n_orient", variables["n_orient"], ()))
+        if n_orient not in (1, 3) or n % n_orient:
+            raise InputError(
+                f"{path}: n_orient must be 1 or 3 and divide n_sources ({n}), got {n_orient}"
+            )
+        found["n_orient"] = n_orient
+    return found
+
+
 def read_case(path: str | os.PathLike) -> Case:
     """Read a case written by :func:`write_case` (or :func:`export`).
 
@@ -121,6 +138,7 @@ def read_case(path: str | os.PathLike) -> Case:
         inputs["smoother"] = check_smoother(_text(variables, "smoother", path))
     except InputError as err:
         raise InputError(f"{path}: {err}") from None
+    inputs |= _options(variables, path, n)
     expected: dict[str, NDArray[np.float64] | float] = {
         name: readonly(check_array(f"{path}: {name}", variables[name], (n, T)))
         for name in OUTPUTS

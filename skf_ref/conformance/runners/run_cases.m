@@ -11,7 +11,9 @@ function run_cases(case_dir, out_dir, skf)
 %       [z, z_filtered, x, x_filtered, weights, log_likelihood] = ...
 %           skf(L, Y, R, A, Q, P0, exponent, smoother)
 %
-%   and saves the outputs to OUT_DIR/<case>.mat (MATLAB version 7, which Octave writes
+%   (a case that standardizes each position as a whole, suite version 3, also passes
+%   standardize = 'position' and n_orient = 3 as two more inputs; a function of eight
+%   inputs skips it) and saves the outputs to OUT_DIR/<case>.mat (MATLAB version 7, which Octave writes
 %   with -v7 and scipy reads). Every array is n_sources x n_times, as in the case file;
 %   smoother is 'none', 'rts-standardized', 'rts-state' or 'rts-smoothed-weights'. An
 %   output returned empty ([]) is not saved, and not compared. A function with a seventh
@@ -35,8 +37,17 @@ for k = 1:numel(files)
     A = identity_times(c.transition, n);
     Q = identity_times(c.q, n);
     P0 = identity_times(c.theta0, n);
+    inputs = {c.L, c.Y, R, A, Q, P0, c.exponent, c.smoother};
+    if isfield(c, 'standardize') && ~strcmp(c.standardize, 'column')
+        if nargin(skf) >= 0 && nargin(skf) < 10
+            fprintf('%-24s skipped: standardize %s, n_orient %d: give the function two more inputs\n', ...
+                    c.case, c.standardize, double(c.n_orient));
+            continue
+        end
+        inputs = [inputs, {c.standardize, double(c.n_orient)}];
+    end
     values = cell(1, numel(names) + (nargout(skf) > numel(names)));
-    [values{:}] = skf(c.L, c.Y, R, A, Q, P0, c.exponent, c.smoother);
+    [values{:}] = skf(inputs{:});
     outputs = struct();
     for i = 1:numel(names)
         if ~isempty(values{i})
