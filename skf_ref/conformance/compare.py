@@ -231,8 +231,15 @@ class Comparison:
 
     @property
     def first_divergence(self) -> dict[str, Any] | None:
-        """dict or None : ``quantity``, ``equation``, ``step``, ``source`` (and more) of
-        :attr:`divergence`; steps and rows count from 1."""
+        """Where their numbers first leave the tolerance, as plain values (for JSON).
+
+        Returns
+        -------
+        dict or None
+            ``quantity``, ``equation``, ``step`` and ``source`` (counting from 1), ``output``,
+            ``difference`` and ``not_given`` of :attr:`divergence`; None when nothing
+            diverges.
+        """
         return None if self.divergence is None else self.divergence.to_dict()
 
     @property
