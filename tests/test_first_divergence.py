@@ -113,3 +113,12 @@ def test_the_json_names_the_first_divergence(tmp_path, capsys):
     found = json.loads((tmp_path / "r.json").read_text())["first_divergence"]
     assert (found["quantity"], found["step"]) == ("weights", 4)
     assert "First divergence: weights (w) at step 4" in capsys.readouterr().out
+
+
+def test_the_float32_hint_gives_what_float32_reaches_by_algorithm():
+    from independent_skf import run_case
+
+    case = CASES["priors_toolbox"]  # float32 rounding reaches 1e-5 here
+    result = compare(case, run_case(case, dtype=np.float32))
+    assert not result.agrees and result.first_divergence is None  # float32 explains it
+    assert "3e-6 in covariance form" in result.hint and "8e-5 in information form" in result.hint
