@@ -39,7 +39,7 @@ PATHS_RTOL = 1e-8
 # Regenerating a case's inputs from its seed repeats the same arithmetic: equal to rounding
 # (bit for bit on one machine; another BLAS may order a product differently).
 INPUTS_RTOL = 1e-12
-# No file of the suite is large: 10 kB for a short case, 60 kB for the 300-step one.
+# No file of the suite is large: 10-40 kB for a short case, 60 kB for the 300-step one.
 LARGEST_FILE = 60_000
 
 
@@ -326,7 +326,8 @@ def test_the_two_formats_hold_the_same_case():
 def test_the_files_are_small():
     sizes = {path.name: path.stat().st_size for path in SUITE.iterdir()}
     assert max(sizes.values()) <= LARGEST_FILE, sizes
-    assert sum(sizes.values()) <= 10 * LARGEST_FILE
+    # version 3's short cases carry their expected intermediates (10-40 kB a file)
+    assert sum(sizes.values()) <= 15 * LARGEST_FILE
 
 
 def test_mat_files_are_matlab_v5_in_mne_layout():

@@ -129,3 +129,20 @@ def test_a_case_file_with_a_wrong_n_orient_is_refused(tmp_path):
     np.savez(tmp_path / "bad.npz", **variables)
     with pytest.raises(InputError, match=r"bad.npz: n_orient must be 1 or 3 and divide"):
         read_case(tmp_path / "bad.npz")
+
+
+def test_the_short_cases_carry_their_expected_intermediates():
+    from skf_ref.conformance._expected import expected_intermediates
+
+    for name, case in CASES.items():
+        if case.shape[1] > 50:
+            assert case.intermediates == {}, name
+            continue
+        fresh = expected_intermediates(case)
+        assert set(case.intermediates) == set(fresh) - {"theta0", "q"}, name
+        for key, value in case.intermediates.items():  # pinned; the package agrees
+            scale = np.max(np.abs(fresh[key])) or 1.0
+            assert np.max(np.abs(value - fresh[key])) <= 1e-12 * scale, (name, key)
+    mat = read_case(SUITES[3] / "position.mat")  # MATLAB's file holds the same
+    assert mat.intermediates["P_pred"].shape == (9, 9, 7)
+    np.testing.assert_array_equal(mat.intermediates["K"], CASES["position"].intermediates["K"])

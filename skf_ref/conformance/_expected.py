@@ -153,6 +153,8 @@ def scales(case: Any, expected: dict[str, Any]) -> dict[str, float]:
 def expected_variables(case: Any) -> tuple[dict[str, Any], dict[str, float]]:
     """The case's outputs and intermediates by name, and their scales (once per case).
 
+    The intermediates the case file carries (pinned), or else computed by the dense path.
+
     Parameters
     ----------
     case : Case
@@ -162,5 +164,7 @@ def expected_variables(case: Any) -> tuple[dict[str, Any], dict[str, float]]:
     expected : dict
     scales : dict of str to float
     """
-    expected = {**case.expected, **expected_intermediates(case)}
+    pinned = {**case.intermediates, "theta0": case.inputs["theta0"], "q": case.inputs["q"]}
+    computed = pinned if case.intermediates else expected_intermediates(case)
+    expected = {**case.expected, **computed}
     return expected, scales(case, expected)

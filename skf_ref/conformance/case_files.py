@@ -14,6 +14,7 @@ from .._utils.atomic_files import atomic_path, check_output_path
 from .._utils.checks import InputError, check_array, check_choice, check_instance
 from ..method._result import readonly
 from ..method._settings import check_smoother
+from ._intermediates import NAMES
 from .cases import EXTRAS, INPUTS, OPTIONS, OUTPUTS, Case, as_value
 
 __all__ = ["FORMATS", "read_case", "write_case"]
@@ -27,6 +28,8 @@ _ABOUT = (
     "conformance_version",
     "skf_ref_version",
 )
+#: The expected intermediates a case file may carry (its inputs theta0 and q aside).
+_CARRIED = tuple(name for name in NAMES if name not in (*OUTPUTS, *INPUTS))
 _ZIP_DATE = (1980, 1, 1, 0, 0, 0)  # the earliest date a zip file can hold
 # the 116 bytes of text that open a MATLAB v5 file; scipy writes the time of writing there
 _MAT_HEADER = b"MATLAB 5.0 MAT-file, skf_ref conformance case".ljust(116)
@@ -151,6 +154,7 @@ def read_case(path: str | os.PathLike) -> Case:
         for name in EXTRAS
         if name in variables
     }
+    carried = {name: as_value(variables[name]) for name in variables if name in _CARRIED}
     return Case(
         name=_text(variables, "case", path),
         description=_text(variables, "description", path),
@@ -163,4 +167,5 @@ def read_case(path: str | os.PathLike) -> Case:
             check_array(f"{path}: version", variables["conformance_version"], ())
         ),
         skf_ref_version=_text(variables, "skf_ref_version", path),
+        intermediates=carried,
     )

@@ -67,6 +67,8 @@ EXTRAS = (
 )
 
 _SEED = 11  # the project's issue 11
+#: A case of at most this many steps carries its expected intermediates (version 3 on).
+_SMALL = 50
 #: Steps of most cases: a transposed output shows in its shape, except in ``square``.
 _N_TIMES = 7
 
@@ -95,6 +97,11 @@ class Case:
         The suite version the case belongs to.
     skf_ref_version : str
         The version of ``skf_ref`` that computed the expected outputs.
+    intermediates : dict
+        The expected intermediates (``x_pred``, ``P_pred``, ``S``, ``K``, ``P_filt``, ``w``;
+        ``G``, ``P_smooth`` with a smoother; ``Sigma``, ``w_smooth`` with
+        ``"rts-smoothed-weights"``), time last, of the small cases of version 3 on; empty
+        otherwise (``compare`` then computes them).
     """
 
     name: str
@@ -106,6 +113,7 @@ class Case:
     tolerance: float = TOLERANCE
     conformance_version: int = CONFORMANCE_VERSION
     skf_ref_version: str = __version__
+    intermediates: dict = field(default_factory=dict)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -161,7 +169,7 @@ class Case:
         inputs = {**self.inputs, "smoother": self.inputs["smoother"] or "none"}
         if self.conformance_version < 3:  # its files have no options: written as they were
             inputs = {k: v for k, v in inputs.items() if k not in OPTIONS}
-        return {**about, **inputs, **self.extras, **self.expected}
+        return {**about, **inputs, **self.extras, **self.expected, **self.intermediates}
 
 
 # --- the cases -------------------------------------------------------------------------------
@@ -463,6 +471,11 @@ def _build(name, seed, description, own, builder):
     case = Case(name, description, _exercises(inputs, own), inputs, {}, extras)
     rec = case.reconstruct("dense")
     case.expected.update({key: as_value(getattr(rec, key)) for key in OUTPUTS})
+    if case.shape[1] <= _SMALL:
+        from ._expected import expected_intermediates
+
+        found = expected_intermediates(case)
+        case.intermediates.update({k: as_value(v) for k, v in found.items() if k not in INPUTS})
     return case
 
 

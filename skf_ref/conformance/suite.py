@@ -353,6 +353,7 @@ def build(directory: str | os.PathLike, formats: Sequence[str] = FORMATS) -> lis
             "description": case.description,
             "exercises": list(case.exercises),
             "also_holds": list(case.extras),
+            "intermediates": list(case.intermediates),
             "n_channels": case.inputs["L"].shape[0],
             "n_sources": case.shape[0],
             "n_times": case.shape[1],
@@ -391,6 +392,9 @@ def _about():
             "n_orient": "an integer, 1 or 3: the columns of a position",
             "z, z_filtered, x, x_filtered, weights": "(n_sources, n_times)",
             "log_likelihood": "a scalar",
+            "x_pred, P_pred, S, K, P_filt, w, G, P_smooth, Sigma, w_smooth": "the expected "
+            "intermediates (cases of at most 50 steps; those of the case's smoother): time "
+            "last, P_pred is (n_sources, n_sources, n_times), G has n_times - 1 steps",
         },
         "inputs": [*INPUTS, *OPTIONS],
         "outputs": list(OUTPUTS),
