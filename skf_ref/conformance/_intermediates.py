@@ -170,7 +170,8 @@ INTERMEDIATES = (
         "weights",
         "weights",
         _N_T,
-        _FILTER + "(7): the diagonal of W_t^(alpha) = Diag(w_t ** -alpha)",
+        _FILTER + "(7): the diagonal of W_t^(alpha) = Diag(w_t ** -alpha) (by position: "
+        "its blocks B_t(i) ** -alpha)",
         "forward",
         inputs=("w",),
     ),
