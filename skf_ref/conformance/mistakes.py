@@ -71,8 +71,8 @@ def _outputs(filtered, model, case, smoother=None):
     """Smooth (the case's smoother unless another is given) and package a filter's output."""
     smoother = smoother or case.inputs["smoother"]
     exponent, block = filtered["exponent"], _block(case)
-    matrices = tuple(model.matrix(name) for name in ("transition", "q", "theta0"))
-    x, z = dense.smooth(filtered, smoother, matrices, exponent, block)
+    A, Q, P0 = (model.matrix(name) for name in ("transition", "q", "theta0"))
+    x, z = dense.smooth(filtered, smoother, A, exponent, block, prior=(Q, P0))
     standardization = (case.inputs.get("standardize", "column"), block if block > 1 else None)
     rec = dense.result(filtered, x, z, model, exponent, smoother, "suspect", standardization)
     return {**{name: getattr(rec, name) for name in ARRAYS}, "log_likelihood": rec.log_likelihood}
