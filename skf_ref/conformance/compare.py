@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from .._utils.checks import InputError, check_path, check_real
-from ._distances import relative_steps
+from ._distances import FACTOR, NEARER, relative_steps
 from ._divergence import Divergence, first_divergence
 from ._expected import expected_variables
 from ._intermediates import NAMES, checked_intermediate, variables
@@ -337,7 +337,7 @@ class Comparison:
             ]
         suspect = next(s for s in self.suspects if s["name"] == closest)
         return [
-            f"Nearest known mistake: {closest}, off by {suspect['distance']:.1e} and far "
-            f"nearer than the expected outputs on every output that differs: "
-            f"{suspect['description']}"
+            f"Nearest known mistake: {closest}, off by {suspect['distance']:.1e}, which "
+            f"explains these outputs (on every output given, within {FACTOR:g} tolerances or "
+            f"{NEARER:g} times nearer than the expected outputs): {suspect['description']}"
         ]
