@@ -24,8 +24,8 @@ from skf_ref.study import metrics
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 # Pages whose examples are doctests (```pycon blocks); model.md has its own runner
-# (tests/test_model_doc.py) and conformance.md shows shell and MATLAB, not Python.
-PAGES_WITH_EXAMPLES = ("getting_started.md", "choosing.md", "scale.md")
+# (tests/test_model_doc.py).
+PAGES_WITH_EXAMPLES = ("getting_started.md", "choosing.md", "scale.md", "conformance.md")
 # At least this many executed examples in the gallery (issue 25).
 MIN_GALLERY = 6
 
