@@ -1,0 +1,88 @@
+"""Calibrated detection of thalamic activity: a threshold set on runs without a thalamic source.
+
+"Within 6 dB of the maximum" says where an estimate is largest, not whether a deep source is
+there: a cortical source alone can fill the thalamus of an estimate. A calibrated detector
+instead compares the thalamus' *absolute* level with what runs without a thalamic source
+produce (with the same head, method and noise level):
+
+- the statistic, :func:`thalamic_level`: the maximum amplitude over the thalamus' positions
+  at the thalamic source's peak time;
+- the threshold, :func:`null_threshold`: the largest of the 95th percentiles of the
+  statistic over each kind of null run (noise only; a single cortical source at a random
+  position and orientation), each taken as an order statistic, so that at most 5 % of every
+  kind of null run exceeds it;
+- a run detects a thalamic source when its statistic exceeds the threshold.
+
+The threshold holds only for the head, method, setting and noise level it was calibrated
+with: amplitudes are in each method's own units.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._utils.checks import InputError, check_real
+
+__all__ = ["FALSE_DETECTION_RATE", "null_threshold", "thalamic_level"]
+
+#: The share of null runs a threshold lets through (at most), per kind of null.
+FALSE_DETECTION_RATE = 0.05
+
+
+def null_threshold(*nulls, rate=FALSE_DETECTION_RATE):
+    """The largest of the nulls' ``1 - rate`` quantiles (order statistics, never interpolated).
+
+    Parameters
+    ----------
+    *nulls : array_like, shape (n_k,)
+        The statistic over each kind of null run (at least one run each).
+    rate : float
+        The false-detection rate allowed in every kind, in (0, 1).
+
+    Returns
+    -------
+    float
+        At most ``rate`` of each kind's runs lie strictly above it.
+
+    Examples
+    --------
+    >>> null_threshold(np.arange(1.0, 101.0), np.arange(20.0))
+    96.0
+    """
+    rate = check_real("rate", rate, positive=True, maximum=1.0)
+    if not nulls:
+        raise InputError("null_threshold needs at least one set of null runs")
+    levels = []
+    for k, values in enumerate(nulls):
+        values = np.asarray(values, dtype=float).ravel()
+        if not values.size or not np.isfinite(values).all():
+            raise InputError(f"nulls[{k}] must hold finite values, at least one")
+        levels.append(np.quantile(values, 1.0 - rate, method="higher"))
+    return float(max(levels))
+
+
+def thalamic_level(amplitude, thalamus):
+    """The maximum amplitude over the thalamus' positions (the detection statistic).
+
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions,) or (n_positions, n_runs)
+        Position amplitudes at the thalamic peak time.
+    thalamus : ndarray of bool, shape (n_positions,)
+
+    Returns
+    -------
+    float or ndarray, shape (n_runs,)
+
+    Examples
+    --------
+    >>> thalamic_level(np.array([[1.0, 5.0], [2.0, 0.5]]), np.array([False, True]))
+    array([2. , 0.5])
+    """
+    amplitude = np.asarray(amplitude, dtype=float)
+    thalamus = np.asarray(thalamus, dtype=bool)
+    if thalamus.shape != amplitude.shape[:1] or not thalamus.any():
+        raise InputError(
+            f"thalamus must be a boolean array of shape ({amplitude.shape[0]},) with a True entry"
+        )
+    return amplitude[thalamus].max(axis=0)

@@ -1,0 +1,127 @@
+"""Resolution metrics of many single-source estimates at once: where the maximum lies, how far
+the estimate spreads, and how much of it reaches the thalamus.
+
+Every function takes ``amplitude``, shape (n_positions, n_runs): the position amplitudes of
+many estimates at one time each (one column per run: the norm of a position's components,
+:func:`position_amplitudes`), the grid ``positions`` (n_positions, 3) and the runs' exact
+source points (n_runs, 3), in metres; distances come out in mm. They are the vectorized
+counterparts, at one time, of :mod:`skf_ref.study.metrics` (same definitions):
+
+- :func:`peak_errors`: distance from the source to the position of the maximum;
+- :func:`spatial_dispersion`: ``sqrt(sum_p a_p^2 d_p^2 / sum_p a_p^2)`` (Molins et al. 2008,
+  NeuroImage 42: 1069-1077; Hauk et al. 2019, NeuroImage 191: 631-649), with ``d_p`` the
+  distance from the source to position p;
+- :func:`level_db`: a set of positions' maximum re. the map's maximum (dB); with the
+  thalamus as the set and cortical sources as the runs, the cortex-to-thalamus cross-talk.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._utils.checks import InputError
+
+__all__ = ["level_db", "peak_errors", "position_amplitudes", "spatial_dispersion"]
+
+
+def position_amplitudes(z, n_orient=3):
+    """Norm of each position's components: (n_positions * n_orient, ...) -> (n_positions, ...).
+
+    Examples
+    --------
+    >>> position_amplitudes(np.array([[3.0], [4.0], [0.0], [0.0], [0.0], [1.0]]))
+    array([[5.],
+           [1.]])
+    """
+    z = np.asarray(z, dtype=float)
+    if z.shape[0] % n_orient:
+        raise InputError(f"z must have a multiple of {n_orient} rows, got shape {z.shape}")
+    blocks = z.reshape(z.shape[0] // n_orient, n_orient, *z.shape[1:])
+    return np.sqrt(np.square(blocks).sum(axis=1))
+
+
+def _check(amplitude, positions, points):
+    amplitude = np.asarray(amplitude, dtype=float)
+    positions = np.asarray(positions, dtype=float)
+    points = np.asarray(points, dtype=float)
+    if amplitude.ndim != 2 or amplitude.shape[0] != len(positions):
+        raise InputError(
+            f"amplitude must have shape (n_positions, n_runs) = ({len(positions)}, n_runs), "
+            f"got {amplitude.shape}"
+        )
+    if points.shape != (amplitude.shape[1], 3):
+        raise InputError(
+            f"points must have shape (n_runs, 3) = ({amplitude.shape[1]}, 3), got {points.shape}"
+        )
+    return amplitude, positions, points
+
+
+def peak_errors(amplitude, positions, points):
+    """Distance (mm) from each run's source to the position of its maximum.
+
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions, n_runs)
+    positions : ndarray, shape (n_positions, 3)
+    points : ndarray, shape (n_runs, 3)
+
+    Returns
+    -------
+    errors : ndarray, shape (n_runs,)
+        NaN where a run's amplitude is zero everywhere (no estimate).
+    peak : ndarray of int, shape (n_runs,)
+        The position of the maximum (the first on a tie).
+
+    Examples
+    --------
+    >>> positions = np.array([[0.0, 0, 0], [0.02, 0, 0]])
+    >>> peak_errors(np.array([[1.0, 3.0], [3.0, 1.0]]), positions, np.zeros((2, 3)))
+    (array([20.,  0.]), array([1, 0]))
+    """
+    amplitude, positions, points = _check(amplitude, positions, points)
+    peak = amplitude.argmax(axis=0)
+    errors = np.linalg.norm(positions[peak] - points, axis=1) * 1e3
+    return np.where(amplitude.max(axis=0) > 0, errors, np.nan), peak
+
+
+def spatial_dispersion(amplitude, positions, points):
+    """Spatial dispersion (mm): the amplitude-weighted RMS distance from the source.
+
+    ``SD = sqrt(sum_p a_p^2 d_p^2 / sum_p a_p^2)``; NaN for an all-zero run.
+
+    Examples
+    --------
+    >>> positions = np.array([[0.0, 0, 0], [0.01, 0, 0]])
+    >>> spatial_dispersion(np.array([[1.0], [1.0]]), positions, np.zeros((1, 3)))
+    array([7.07106781])
+    """
+    amplitude, positions, points = _check(amplitude, positions, points)
+    power = amplitude**2
+    total = power.sum(axis=0)
+    squared = ((positions**2).sum(axis=1)[:, None] - 2 * positions @ points.T) + (points**2).sum(
+        axis=1
+    )[None]
+    spread = np.einsum("pr,pr->r", power, np.maximum(squared, 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(total > 0, np.sqrt(spread / total) * 1e3, np.nan)
+
+
+def level_db(amplitude, mask):
+    """The maximum over the positions of ``mask`` re. the maximum over all, in dB, per run.
+
+    0 dB: the set holds the map's maximum; ``-inf``: the set is empty of activity.
+
+    Examples
+    --------
+    >>> level_db(np.array([[1.0, 2.0], [2.0, 2.0]]), np.array([True, False]))
+    array([-6.02059991,  0.        ])
+    """
+    amplitude = np.asarray(amplitude, dtype=float)
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != amplitude.shape[:1] or not mask.any():
+        raise InputError(
+            f"mask must be a boolean array of shape ({amplitude.shape[0]},) with a True entry"
+        )
+    inside, overall = amplitude[mask].max(axis=0), amplitude.max(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(overall > 0, 20 * np.log10(inside / overall), -np.inf)
