@@ -275,6 +275,22 @@ def _specificity(settings, out, n_jobs, results, common):
     return specificity_report.specificity_text(table, choice, settings, figures)
 
 
+def _worth(settings, out, args, common):
+    """The study of the SKF's worth (v2): run it, write its figures and headline files.
+
+    Returns
+    -------
+    str
+        Its sections of REPORT.md.
+    """
+    from .worth.run import run_worth
+    from .worth.text import worth_text, write_headline
+
+    worth = run_worth(settings, out, args.jobs, fresh=args.fresh, **common)
+    write_headline(worth, out)
+    return worth_text(worth, out)
+
+
 _NO_DATASET = (
     "reproduce: the BEM cells need MNE's testing dataset: give --mne-testing-data DIR (DIR: "
     "the folder mne.datasets.testing.data_path() returns; nothing is downloaded); running "
@@ -330,6 +346,7 @@ def main(argv=None):
         best_cell_ = next(cell for cell in settings.cells if cell.name == best)
         variants = run_variants(best_cell_, settings, out, args.jobs, progress, **common)
     headline, details = _specificity(settings, out, args.jobs, results, common)
+    worth = _worth(settings, out, args, common)
     total = sum(len(read_results(out / name)) for name in names)
     skipped = None if testing is not None else "MNE's testing dataset was not given or found"
     data = Overview(
@@ -346,7 +363,7 @@ def main(argv=None):
     generated = _generated(elapsed, args.jobs, total - before, total)
     title, rest = text.split("\n", 1)
     before_rules, rules = rest.split("\n## Decision rules\n", 1)
-    rest = f"{before_rules}\n{headline}\n## Decision rules\n{rules.rstrip()}\n\n{details}"
+    rest = f"{before_rules}\n{worth}\n{headline}\n## Decision rules\n{rules.rstrip()}\n\n{details}"
     with atomic_path(out / "REPORT.md") as tmp:
         tmp.write_text(f"{title}\n\n{generated}\n{rest}")
     for cell in settings.cells:
