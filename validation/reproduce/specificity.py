@@ -179,6 +179,7 @@ def check_against_sweeps(raw, results):
     results : dict
         Cell name -> :class:`cells.CellResult` (with its ``controls``).
     """
+    from .baselines import EXTRA_SKF
     from .settings import TUNED_PRIOR
 
     for name, result in results.items():
@@ -189,6 +190,7 @@ def check_against_sweeps(raw, results):
             (control["ep_snr_db"] == TUNED_PRIOR[0]) & (control["pm_snr_db"] == TUNED_PRIOR[1])
         ]
         ours = raw[(raw["condition"] == name) & (raw["method"] == "SKF")]
+        ours = ours[~ours["setting"].isin(EXTRA_SKF)]  # not in the sweeps' grid
         ours = ours[(ours["data"] == "superficial") & ours["seed"].isin(control["seed"])]
         setting = control["exponent"].map("{:g}".format) + "/" + control["smoother"]
         keyed = control.assign(setting=setting).set_index(["snr_db", "seed", "setting"])
