@@ -18,8 +18,11 @@ deviation 1, white): a data set's signal is its field times its waveform over si
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+
+from skf_ref._utils.atomic_files import atomic_path
 
 __all__ = [
     "Response",
@@ -190,27 +193,47 @@ def matched_lambda2(pm_snr_db, n_channels, rank):
     return 10.0 ** (-pm_snr_db / 10.0) * rank / n_channels
 
 
-def mne_kernel(head, method, lambda2):
+_INVERSE = {}
+
+
+def _unit_inverse(head):
+    """The head's inverse operator for white unit noise, and the identity as an evoked."""
+    from types import SimpleNamespace
+
+    from skf_ref.study.baselines import inverse_operator, mne_data
+
+    key = id(head)
+    if key not in _INVERSE:
+        n = head.n_channels
+        unit = SimpleNamespace(Y=np.eye(n), times=np.arange(n) / 1000.0, noise_cov=np.eye(n))
+        _INVERSE.clear()
+        _INVERSE[key] = (head, inverse_operator(head, unit), mne_data(head, unit)[0])
+    return _INVERSE[key][1:]
+
+
+def mne_kernel(head, method, lambda2, cache=None):
     """MNE's kernel of a minimum-norm method on whitened data, (n_columns, n_channels).
 
     The inverse operator of the head (free orientation, no depth weighting, noise covariance
     the identity, the average reference), prepared for ``method`` and ``lambda2``, applied by
     ``apply_inverse`` to each channel alone (``pick_ori="vector"``): the components of every
-    position, in MNE's order.
+    position, in MNE's order. ``cache``: a folder where kernels are kept between processes.
     """
-    from types import SimpleNamespace
-
     from mne.minimum_norm import apply_inverse, prepare_inverse_operator
 
-    from skf_ref.study.baselines import inverse_operator, mne_data
-
-    n = head.n_channels
-    unit = SimpleNamespace(Y=np.eye(n), times=np.arange(n) / 1000.0, noise_cov=np.eye(n))
-    evoked = mne_data(head, unit)[0]
-    inverse = prepare_inverse_operator(
-        inverse_operator(head, unit), 1, lambda2, method, verbose=False
-    )
+    path = None
+    if cache is not None:
+        path = Path(cache) / f"kernel-{method}-{lambda2:.12g}.npy"
+        if path.exists():
+            return np.load(path)
+    inverse, evoked = _unit_inverse(head)
+    inverse = prepare_inverse_operator(inverse, 1, lambda2, method, verbose=False)
     stc = apply_inverse(
         evoked, inverse, lambda2, method, pick_ori="vector", prepared=True, verbose=False
     )
-    return np.asarray(stc.data).reshape(-1, n)
+    kernel = np.asarray(stc.data).reshape(-1, head.n_channels)
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as tmp:
+            np.save(tmp, kernel)
+    return kernel

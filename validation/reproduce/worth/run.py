@@ -173,7 +173,7 @@ def _phase_b(study, sizes, worth, folder):
     for k, chunk in enumerate(_chunks(tuned_runs(study, sizes), 6)):
         path = Path(folder) / "runs" / "tuned" / f"part-{k:02d}.csv.gz"
         if not path.exists():
-            jobs.append((run_tuned, study, chunk, tuned, sizes, path))
+            jobs.append((run_tuned, study, chunk, tuned, sizes, path, folder / "runs" / "kernels"))
     return jobs
 
 

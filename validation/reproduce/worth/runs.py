@@ -8,6 +8,7 @@ configuration). :func:`data_of` builds its data exactly as the linear study adds
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
@@ -99,12 +100,18 @@ def data_of(study, run, pool_size):
             (study_set.cortical.gain[:, partner], PEAK_MOMENT * waves["cortical"]),
         ]
         points = (study_set.thalamic.points[index], study_set.cortical.points[partner])
-    noise = study.pool(set_name, 0, pool_size, n_times)[draw % pool_size]
+    noise = _pool(study, set_name, pool_size, n_times)[draw % pool_size]
     if kind in ("thalamic", "cortical"):
         sigma = np.abs(np.outer(*parts[0])).max() * 10.0 ** (-snr / 20.0)
     else:
         sigma = study.sigma(snr)
     return run_data(head(study), parts, sigma, noise), points
+
+
+@functools.lru_cache(maxsize=4)
+def _pool(study, set_name, pool_size, n_times):
+    """A set's D1 noise pool, drawn once per process."""
+    return study.pool(set_name, 0, pool_size, n_times)
 
 
 def _row(run, measured, **extra):
@@ -161,34 +168,34 @@ def _tuned_skf(study, sim, settings, n_times):
             )  # fmt: skip
 
 
-def _tuned_mne(study, sim, kernels):
+def _tuned_mne(study, sim, cache):
     """(amplitude, columns) of MNE's methods at the discrepancy principle's lambda2."""
     from .design import STATIC_METHODS
     from .linear import mne_kernel
 
     lambda2, bound = discrepancy_lambda2(head(study).leadfield, sim.Y, sim.sigma)
     for method in STATIC_METHODS:
-        if (method, lambda2) not in kernels:
-            kernels[method, lambda2] = mne_kernel(head(study), method, lambda2)
-        amplitude = minimum_norm_amplitude(kernels[method, lambda2], sim.Y, sim.sigma)
+        kernel = mne_kernel(head(study), method, lambda2, cache)
+        amplitude = minimum_norm_amplitude(kernel, sim.Y, sim.sigma)
         yield amplitude, dict(
             method=method, criterion="discrepancy", ep_snr_db=np.nan, pm_snr_db=np.nan,
             lambda2=lambda2, bound=bound or "", warnings=0,
         )  # fmt: skip
 
 
-def run_tuned(study, runs, settings, sizes, path):
+def run_tuned(study, runs, settings, sizes, path, cache=None):
     """Each run with priors (SKF) and lambda2 (MNE's methods) chosen from its data alone.
 
     ``settings``: label -> SKFSetting whose exponent, smoother and standardization the tuned
-    priors are applied with.
+    priors are applied with; ``cache``: where MNE's kernels are kept
+    (:func:`.linear.mne_kernel`).
     """
     geo = geometry(study)
     waves, samples, n_times = design_waves(_D1)
-    kernels, rows = {}, []
+    rows = []
     for run in runs:
         sim, points = data_of(study, run, sizes.pool)
-        for part in (_tuned_skf(study, sim, settings, n_times), _tuned_mne(study, sim, kernels)):
+        for part in (_tuned_skf(study, sim, settings, n_times), _tuned_mne(study, sim, cache)):
             for amplitude, extra in part:
                 measured = measure_run(amplitude, geo, points, samples, waves["thalamic"])
                 rows.append(_row(run, measured, **extra))

@@ -21,6 +21,20 @@ def _spectral_model():
     return SpectralModel
 
 
+_BASES = {}
+
+
+def _basis(L):
+    """The whitening and SVD of ``L`` with unit white noise, computed once per lead field."""
+    from skf_ref.method.paths.singular_basis import SpectralBasis
+
+    key = (id(L), L.shape)
+    if key not in _BASES:
+        _BASES.clear()  # one lead field at a time: a process holds one head
+        _BASES[key] = (L, SpectralBasis(L, np.eye(L.shape[0])))
+    return _BASES[key][1]
+
+
 def available():
     """The smoothers and standardizations the package offers (issue 33 adds two)."""
     from skf_ref.method.reconstruct import SMOOTHERS
@@ -54,7 +68,7 @@ class Prepared:
             theta0, q = priors_from_snr(L, 1.0, pm, ep, n_times)
         model = StateSpaceModel.create(L, noise_std=1.0, theta0=theta0, q=q)
         self.L, self.n_times = L, n_times
-        self.spectral = _spectral_model()(model, n_times)
+        self.spectral = _spectral_model()(model, n_times, basis=_basis(L))
 
     def reconstruction(self, Y, setting):
         """The reconstruction of whitened data ``Y`` (n_channels, n_times) by ``setting``."""

@@ -102,8 +102,9 @@ def static_lambda2(study, method):
     return matched_lambda2(0.0, study.n_channels, study.rank)
 
 
-def _static_kernel(study, method):
-    return mne_kernel(head(study), method.method, static_lambda2(study, method))
+def _static_kernel(study, method, folder):
+    cache = Path(folder) / "runs" / "kernels"
+    return mne_kernel(head(study), method.method, static_lambda2(study, method), cache)
 
 
 def _window(study, setting, n_times):
@@ -118,7 +119,7 @@ def run_linear(study, method, designs, sets, sizes, folder):
     noise responses once per set and design.
     """
     geo = geometry(study)
-    kernel = None if isinstance(method, SKFSetting) else _static_kernel(study, method)
+    kernel = None if isinstance(method, SKFSetting) else _static_kernel(study, method, folder)
     for design_name in designs:
         index = next(k for k, d in enumerate(DESIGNS) if d.name == design_name)
         paths = {s: run_file(folder, s, design_name, method.key) for s in sets}
