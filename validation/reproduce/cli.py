@@ -280,15 +280,15 @@ def _worth(settings, out, args, common):
 
     Returns
     -------
-    str
+    worth : Worth
+    text : str
         Its sections of REPORT.md.
     """
     from .worth.run import run_worth
-    from .worth.text import worth_text, write_headline
+    from .worth.text import worth_text
 
     worth = run_worth(settings, out, args.jobs, fresh=args.fresh, **common)
-    write_headline(worth, out)
-    return worth_text(worth, out)
+    return worth, worth_text(worth, out)
 
 
 _NO_DATASET = (
@@ -346,7 +346,7 @@ def main(argv=None):
         best_cell_ = next(cell for cell in settings.cells if cell.name == best)
         variants = run_variants(best_cell_, settings, out, args.jobs, progress, **common)
     headline, details = _specificity(settings, out, args.jobs, results, common)
-    worth = _worth(settings, out, args, common)
+    worth, worth_part = _worth(settings, out, args, common)
     total = sum(len(read_results(out / name)) for name in names)
     skipped = None if testing is not None else "MNE's testing dataset was not given or found"
     data = Overview(
@@ -363,9 +363,13 @@ def main(argv=None):
     generated = _generated(elapsed, args.jobs, total - before, total)
     title, rest = text.split("\n", 1)
     before_rules, rules = rest.split("\n## Decision rules\n", 1)
-    rest = f"{before_rules}\n{worth}\n{headline}\n## Decision rules\n{rules.rstrip()}\n\n{details}"
+    rules = f"## Decision rules\n{rules.rstrip()}\n\n{details}"
+    rest = f"{before_rules}\n{worth_part}\n{headline}\n{rules}"
     with atomic_path(out / "REPORT.md") as tmp:
         tmp.write_text(f"{title}\n\n{generated}\n{rest}")
+    from .worth.text import write_headline
+
+    write_headline(worth, out, rest, elapsed)
     for cell in settings.cells:
         result = results[cell.name]
         verdicts = ", ".join(

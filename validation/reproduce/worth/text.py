@@ -113,20 +113,36 @@ def worth_text(worth, out):
 
 
 def _numbers(text):
-    return sorted(set(re.findall(r"\d+(?:\.\d+)?", text)))
+    return set(re.findall(r"\d+(?:\.\d+)?", text))
 
 
-def write_headline(worth, out):
-    """``headline.md`` (the tables at 20 and 30 dB) and ``headline.json`` (quotable numbers)."""
+def _paragraph(report, heading):
+    """The first paragraph after a heading of the report ('' when it is missing)."""
+    if f"\n{heading}\n" not in report:
+        return ""
+    rest = report.split(f"\n{heading}\n", 1)[1].strip()
+    return rest.split("\n\n", 1)[0]
+
+
+def write_headline(worth, out, report, elapsed):
+    """``headline.md`` (the tables at 20 and 30 dB) and ``headline.json`` (quotable numbers).
+
+    Quotable: the headline tables, the default's rule and verdict, the paragraph of the
+    report's section on the priors chosen by the data, and the run's wall time in minutes.
+    """
     tables = {f"{snr:g} dB": headline_table(worth, snr) for snr in HEADLINE_SNRS}
     markdown = "\n\n".join(f"**{name}**\n\n{table}" for name, table in tables.items()) + "\n"
-    quotable = _numbers(markdown + criteria_text(worth) + rule_text(worth))
+    minutes = f"{elapsed / 60:.0f}"
+    texts = (markdown, criteria_text(worth), rule_text(worth),
+             _paragraph(report, "## Priors chosen by the data"))  # fmt: skip
+    quotable = set().union(*map(_numbers, texts)) | {minutes}
     record = dict(
         default=worth.label(worth.named["N1"]),
         met_all_on_choice=worth.rule[1],
         tables=tables,
         snrs=list(SNRS),
-        quotable=quotable,
+        minutes=minutes,
+        quotable=sorted(quotable, key=lambda x: (float(x), x)),
     )
     with atomic_path(Path(out) / "headline.md") as tmp:
         tmp.write_text(markdown)
