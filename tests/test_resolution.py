@@ -114,3 +114,28 @@ def test_sources_are_drawn_in_their_cells_and_labels_reproducibly():
         draw_sources(head, [3], seed=0, n_orientations=4)
     with pytest.raises(InputError, match="cortex \\+ thalamus"):
         draw_sources(make_head("sphere", "volume", n_positions=500), [3], seed=0)
+
+
+def test_null_levels_feed_every_method_the_same_null_runs():
+    from skf_ref.study.detection import null_levels
+    from skf_ref.study.head import make_head
+    from skf_ref.study.resolution import position_amplitudes as amplitudes
+
+    head = make_head("sphere", "anatomical", spacing_mm=12.0)
+    wave = 1e-8 * np.hanning(9)
+    seen = []
+
+    def backprojection(Y):
+        seen.append(Y)
+        return amplitudes(head.leadfield.T @ Y)
+
+    methods = {"a": backprojection, "b": lambda Y: 2.0 * backprojection(Y)}
+    levels = null_levels(head, methods, 1e-7, wave, 4, n_noise=3, n_cortical=4, seed=2)
+    noise, cortical = levels["a"]
+    assert noise.shape == (3,) and cortical.shape == (4,)
+    assert np.allclose(levels["b"][1], 2 * cortical)  # the same data sets, in order
+    assert np.array_equal(seen[0], seen[1])
+    again = null_levels(head, {"a": backprojection}, 1e-7, wave, 4, n_noise=3, n_cortical=4,
+                        seed=2)  # fmt: skip
+    assert np.array_equal(again["a"][1], cortical)
+    assert cortical.mean() > noise.mean()  # a cortical source spreads into the thalamus

@@ -11,7 +11,8 @@ produce (with the same head, method and noise level):
   statistic over each kind of null run (noise only; a single cortical source at a random
   position and orientation), each taken as an order statistic, so that at most 5 % of every
   kind of null run exceeds it;
-- a run detects a thalamic source when its statistic exceeds the threshold.
+- a run detects a thalamic source when its statistic exceeds the threshold;
+- :func:`null_levels` simulates the null runs for a head, a noise level and any methods.
 
 The threshold holds only for the head, method, setting and noise level it was calibrated
 with: amplitudes are in each method's own units.
@@ -23,7 +24,7 @@ import numpy as np
 
 from .._utils.checks import InputError, check_real
 
-__all__ = ["FALSE_DETECTION_RATE", "null_threshold", "thalamic_level"]
+__all__ = ["FALSE_DETECTION_RATE", "null_levels", "null_threshold", "thalamic_level"]
 
 #: The share of null runs a threshold lets through (at most), per kind of null.
 FALSE_DETECTION_RATE = 0.05
@@ -86,3 +87,54 @@ def thalamic_level(amplitude, thalamus):
             f"thalamus must be a boolean array of shape ({amplitude.shape[0]},) with a True entry"
         )
     return amplitude[thalamus].max(axis=0)
+
+
+def null_levels(head, methods, sigma, cortical_wave, peak_index, *, n_noise=100,
+                n_cortical=100, seed=0):  # fmt: skip
+    """The statistic over null runs simulated for a head, noise level and set of methods.
+
+    Null runs: ``n_noise`` data sets of white noise alone, and ``n_cortical`` with one
+    cortical source at a random grid cell and orientation (:func:`~.sources.draw_sources`,
+    peak moment 10 nAm on ``cortical_wave``) plus noise; every method sees the same data.
+
+    Parameters
+    ----------
+    head : HeadModel
+        A cortex + thalamus head.
+    methods : dict
+        Name -> callable taking data (n_channels, n_times) in volts and returning the
+        position amplitude (n_positions, n_times).
+    sigma : float
+        The white noise's standard deviation (V).
+    cortical_wave : ndarray, shape (n_times,)
+        The cortical source's moment over time (A m).
+    peak_index : int
+        The sample the statistic is read at (the thalamic source's peak).
+    n_noise, n_cortical : int
+        Null runs of each kind.
+    seed : int
+        Seed of the positions, orientations and noise.
+
+    Returns
+    -------
+    dict
+        Name -> (levels over noise-only runs, levels over cortical runs).
+    """
+    from .sources import draw_sources, position_structures
+
+    rng = np.random.default_rng(seed)
+    structures = position_structures(head)
+    thalamus = structures == "thalamus"
+    cortex = np.flatnonzero(structures == "cortex")
+    positions = rng.choice(cortex, size=n_cortical, replace=False)
+    sources = draw_sources(head, positions, seed=int(rng.integers(2**31)), n_orientations=1)
+    wave = np.asarray(cortical_wave, dtype=float)
+    levels = {name: ([], []) for name in methods}
+    for k in range(n_noise + n_cortical):
+        Y = sigma * rng.standard_normal((head.n_channels, len(wave)))
+        if k >= n_noise:
+            Y = Y + np.outer(sources.gain[:, k - n_noise], wave)
+        for name, method in methods.items():
+            level = thalamic_level(method(Y)[:, peak_index], thalamus)
+            levels[name][int(k >= n_noise)].append(float(level))
+    return {name: tuple(np.array(v) for v in pair) for name, pair in levels.items()}
