@@ -169,7 +169,14 @@ def _phase_b(study, sizes, worth, folder):
     path = Path(folder) / "runs" / "irmxne" / "scored.csv.gz"
     if not path.exists():
         jobs.append((run_irmxne, study, irmxne_runs(study, sizes, alphas), alphas, sizes, path))
-    tuned = {name: worth.settings[worth.named[name]] for name in ("N1", "N2", "N4")}
+    tuned = {}
+    for name in ("N1", "N2", "N4"):  # one entry per distinct setting, named by all its names
+        setting = worth.settings[worth.named[name]]
+        same = [label for label, other in tuned.items() if other == setting]
+        if same:
+            tuned[f"{same[0]}, {name}"] = tuned.pop(same[0])
+        else:
+            tuned[name] = setting
     for k, chunk in enumerate(_chunks(tuned_runs(study, sizes), 6)):
         path = Path(folder) / "runs" / "tuned" / f"part-{k:02d}.csv.gz"
         if not path.exists():

@@ -30,8 +30,25 @@ def _methods(worth):
 
 def _name(worth, key):
     names = [name for name, k in worth.named.items() if k == key]
+    setting = worth.settings.get(key)
+    if getattr(setting, "window", None) is not None:
+        return f"{setting.method} (λ² {setting.lambda2}) in {_window_name(worth, setting.window)}"
     label = worth.label(key)
     return f"{', '.join(sorted(names))}: {label}" if names else label
+
+
+def _window_name(worth, window):
+    """E.g. "the window of N1, N4 (EP 0 / PM 0, filter)"."""
+    names = sorted(
+        name for name, key in worth.named.items()
+        if worth.settings[key].priors == window.priors
+        and worth.settings[key].smooths == window.smooths
+    )  # fmt: skip
+    kind = "RTS smoother" if window.smooths else "filter"
+    return (
+        f"the window of {', '.join(names)} (EP {window.ep_snr_db:g} / PM "
+        f"{window.pm_snr_db:g}, {kind})"
+    )
 
 
 def resolution_section(worth):
@@ -126,7 +143,7 @@ def tuning_section(worth):
     tuned = worth.tuned
     rows = []
     for (method, criterion, snr), group in tuned.groupby(["method", "criterion", "snr_db"]):
-        key = worth.named.get(method)
+        key = worth.named.get(method.split(", ")[0])
         name = f"{method}: {worth.label(key)}" if key else method
         if np.isnan(group["lambda2"]).all():
             chosen = (
@@ -187,7 +204,7 @@ def temporal_section(worth):
         for k in [key, *controls]:
             rows.append(
                 [
-                    f"{name}: {worth.label(k)}" if k == key else worth.label(k),
+                    f"{name}: {worth.label(k)}" if k == key else _name(worth, k),
                     *(
                         f"{cell(worth, k, 'true_1', snr, 'rate-only')}; "
                         f"{cell(worth, k, 'deep_error', snr, 'median-only')} / "
@@ -205,12 +222,14 @@ def temporal_section(worth):
 def contrasts_section(worth):
     """Item 7: the named contrasts, paired by position, Holm-adjusted."""
     rows = []
+    formats = {"detection at 1x": lambda v: f"{100 * v:.0f} %",
+               "deep time-course r": lambda v: f"{v:.2f}"}  # fmt: skip
     for row in worth.contrasts.itertuples():
-        detection = row.metric == "detection at 1x"
-        fmt = (lambda v: f"{100 * v:.0f} %") if detection else (lambda v: f"{v:.2f}")
+        fmt = formats.get(row.metric, lambda v: f"{v:.1f}")
+        names = f"{_name(worth, row.a)} vs {_name(worth, row.b)}"
         rows.append(
             [
-                row.contrast + (f" (also {row.also})" if row.also else ""),
+                row.contrast + (f" (also {row.also})" if row.also else "") + f": {names}",
                 row.metric,
                 f"{row.snr_db:g}",
                 fmt(row.first),

@@ -67,7 +67,9 @@ def headline_table(worth, snr):
     ]
     rows = []
     for label, key in headline_rows(worth):
-        name = f"{label}: {worth.label(key)}" if key in worth.settings else label
+        name = label
+        if key in worth.settings and worth.label(key) != label:
+            name = f"{label}: {worth.label(key)}"
         true = cell(worth, key, "true_1", snr, "rate-only")
         false = cell(worth, key, "false_cortical", snr, "rate-only")
         rows.append(
