@@ -185,7 +185,9 @@ class Sizes:
     irmxne_choice: int = 8
     irmxne_scored: int = 24
     tuned: int = 40
+    tuned_snrs: tuple = SNRS
     designs: tuple = tuple(d.name for d in DESIGNS)
+    all_candidates: bool = True  # False: the named settings only (a smoke run)
 
     def quick(self):
         """A smoke run's sizes: every step, tiny sets."""
@@ -199,7 +201,9 @@ class Sizes:
             irmxne_choice=1,
             irmxne_scored=1,
             tuned=1,
-            designs=("D1", "D3"),
+            tuned_snrs=(20.0,),
+            designs=("D1", "D2"),
+            all_candidates=False,
         )
 
 

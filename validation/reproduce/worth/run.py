@@ -333,6 +333,8 @@ def run_worth(settings, out, n_jobs=1, testing_data=None, cache_dir=None, fresh=
     kwargs = head_kwargs(cell, settings, testing_data, cache_dir)
     study = make_study(make_head(**kwargs), kwargs, sizes)
     skf = candidates(*available())
+    if not sizes.all_candidates:
+        skf = [s for s in skf if s in NAMED.values()]
     folder = Path(out) / FOLDER
     _prepare(folder, _manifest(study, sizes, skf), fresh)
     worth = Worth(study, sizes)

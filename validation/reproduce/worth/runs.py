@@ -67,9 +67,8 @@ def irmxne_runs(study, sizes, alphas=None):
 
 def tuned_runs(study, sizes):
     """The configurations whose priors and lambda2 are chosen from each data set."""
-    return [
-        ("scored", "config", i, snr, 1.0) for snr in SNRS for i in range(0, 3 * sizes.tuned, 3)
-    ]
+    configs = range(0, 3 * sizes.tuned, 3)
+    return [("scored", "config", i, snr, 1.0) for snr in sizes.tuned_snrs for i in configs]
 
 
 def data_of(study, run, pool_size):
