@@ -131,6 +131,12 @@ PUBLIC_API = {
         "OUTPUTS",
         "run_demo",
     },
+    "skf_ref.study.detection": {
+        "FALSE_DETECTION_RATE",
+        "null_levels",
+        "null_threshold",
+        "thalamic_level",
+    },
     "skf_ref.study.head": {
         "ANATOMICAL_SPACING_MM",
         "Anatomy",
@@ -193,6 +199,12 @@ PUBLIC_API = {
         "region_mask",
         "region_time_course",
     },
+    "skf_ref.study.resolution": {
+        "level_db",
+        "peak_errors",
+        "position_amplitudes",
+        "spatial_dispersion",
+    },
     "skf_ref.study.scenario": {
         "DEEP_MNI_MM",
         "FORWARDS",
@@ -205,6 +217,15 @@ PUBLIC_API = {
         "WINDOWS",
         "p20n20_scenario",
         "simulate",
+    },
+    "skf_ref.study.sources": {
+        "STRUCTURES",
+        "Sources",
+        "draw_sources",
+        "exact_gains",
+        "position_labels",
+        "position_structures",
+        "random_rotation",
     },
     "skf_ref.study.sweep": {
         "AXES",

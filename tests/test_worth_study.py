@@ -173,9 +173,7 @@ def test_the_skf_at_t1_is_mnes_sloreta_at_the_matched_lambda2():
     import mne
     from mne.minimum_norm import apply_inverse, make_inverse_operator
 
-    from skf_ref.method.model import StateSpaceModel
-    from skf_ref.method.paths.spectral import SpectralModel
-    from skf_ref.method.priors import priors_from_snr
+    from skf_ref.method import SpectralModel, StateSpaceModel, priors_from_snr
     from skf_ref.study.baselines import mne_data
     from skf_ref.study.scenario import make_head_model, p20n20_scenario, simulate
 

@@ -2,7 +2,7 @@
 
 The study needs the SKF as a linear map on whitened data (noise standard deviation 1): a
 spectral model prepared once per lead field, priors and number of samples
-(:class:`skf_ref.method.paths.spectral.SpectralModel`), applied to many data sets with each
+(:class:`skf_ref.method.SpectralModel`), applied to many data sets with each
 setting's exponent, smoother and standardization.
 """
 
@@ -16,7 +16,7 @@ __all__ = ["Prepared", "available"]
 
 
 def _spectral_model():
-    from skf_ref.method.paths.spectral import SpectralModel
+    from skf_ref.method import SpectralModel
 
     return SpectralModel
 
@@ -26,7 +26,7 @@ _BASES = {}
 
 def _basis(L):
     """The whitening and SVD of ``L`` with unit white noise, computed once per lead field."""
-    from skf_ref.method.paths.singular_basis import SpectralBasis
+    from skf_ref.method import SpectralBasis
 
     key = (id(L), L.shape)
     if key not in _BASES:
@@ -37,7 +37,7 @@ def _basis(L):
 
 def available():
     """The smoothers and standardizations the package offers (issue 33 adds two)."""
-    from skf_ref.method.reconstruct import SMOOTHERS
+    from skf_ref.method._settings import SMOOTHERS  # the smoothers this version offers
 
     smoothers = ["none", *(s for s in SMOOTHERS if s is not None)]
     parameters = inspect.signature(_spectral_model().apply).parameters
@@ -60,8 +60,7 @@ class Prepared:
     """
 
     def __init__(self, L, priors, n_times, theta0=None, q=None):
-        from skf_ref.method.model import StateSpaceModel
-        from skf_ref.method.priors import priors_from_snr
+        from skf_ref.method import StateSpaceModel, priors_from_snr
 
         if theta0 is None:
             ep, pm = priors
