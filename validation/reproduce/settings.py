@@ -233,7 +233,7 @@ class Settings:
 
 
 FULL = Settings()
-QUICK = Settings(seeds=2, n_positions=1000, fine_step=60.0, quick=True, spacing_mm=9.0)
+QUICK = Settings(seeds=2, n_positions=500, fine_step=60.0, quick=True, spacing_mm=12.0)
 
 
 def source_digest():
