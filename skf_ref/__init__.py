@@ -56,6 +56,7 @@ _HOMES = {
     "read_skf_stream": "io",
     "write_skf_operator": "io",
     "compare": "conformance.compare",
+    "sys_info": "_utils.sys_info",
 }
 
 __all__ = [*_HOMES, "__version__"]

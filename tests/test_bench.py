@@ -3,14 +3,20 @@
 No timing is asserted here: performance targets live in validation/bench.py's output.
 """
 
+import ast
+from pathlib import Path
+
 import pandas as pd
 import pytest
 
-from validation import bench
+from validation import bench, problem
+
+# 50 positions: the filterpy and dense paths' (n, n) covariances stay small (a fast test)
+TINY = (150, 32, 4)
 
 
 def test_every_path_runs_at_a_tiny_size(tmp_path):
-    table = bench.benchmark(sizes=[(300, 32, 4)], repeats=1, progress=lambda line: None)
+    table = bench.benchmark(sizes=[TINY], repeats=1, progress=lambda line: None)
     assert list(table["path"]) == list(bench.PATHS)
     assert (table["status"] == "ok").all()
     assert (table["seconds"] > 0).all() and (table["peak_mib"] > 0).all()
@@ -23,7 +29,7 @@ def test_paths_past_the_memory_guard_are_reported_not_run(monkeypatch):
 
     monkeypatch.setattr(memory, "available_memory", lambda: 2**20)
     table = bench.benchmark(
-        sizes=[(300, 32, 4)], paths=("dense", "spectral"), repeats=1, progress=lambda line: None
+        sizes=[TINY], paths=("dense", "spectral"), repeats=1, progress=lambda line: None
     )
     dense, spectral = table.itertuples()
     assert dense.status == "not runnable" and "GiB for its covariances" in dense.note
@@ -71,12 +77,12 @@ def test_blas_threads_are_recorded_beside_every_timing(tmp_path, capsys):
     assert "limited to 1 by `--blas-threads 1`" in text
     assert "| BLAS threads |" in text
     # the limit applies to the run only
-    assert bench.blas_columns()["blas_limit"] == "none"
+    assert problem.blas_columns()["blas_limit"] == "none"
 
 
 def test_unlimited_run_records_the_libraries_own_threads():
     table = bench.benchmark(
-        sizes=[(300, 32, 4)], paths=("spectral",), repeats=1, progress=lambda line: None
+        sizes=[TINY], paths=("spectral",), repeats=1, progress=lambda line: None
     )
     (row,) = table.itertuples()
     assert row.blas_limit == "none" and row.blas_threads >= 1
@@ -93,10 +99,10 @@ def test_the_make_row_times_make_inverse_operator(monkeypatch):
         "make_inverse_operator",
         lambda *args, **kwargs: calls.append(1) or make(*args, **kwargs),
     )
-    problem = bench.make_problem(300, 32, 4)
+    tiny = problem.make_problem(*TINY)
     for path, made_per_run in (("mne-sloreta", 0), ("mne-sloreta+make", 1)):
         calls.clear()
-        run = bench._runner(problem, path)
+        run = bench._runner(tiny, path)
         made_before = len(calls)
         run()
         run()
@@ -185,3 +191,22 @@ def test_replace_section_adds_replaces_and_keeps():
     text = replace_section(text, "## Two", "## Two\n\nb\n")
     text = replace_section(text, "## One", "## One\n\nc\n")
     assert text == "# B\n\n## One\n\nc\n\n## Two\n\nb\n"
+
+
+def _validation_imports(name):
+    """The ``validation`` modules a validation script imports, at any depth."""
+    path = Path(__file__).resolve().parents[1] / "validation" / f"{name}.py"
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module == "validation":
+            found |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("validation."):
+            found.add(node.module.split(".")[1])
+    return found
+
+
+def test_bench_and_floor_share_a_module_and_do_not_import_each_other():
+    assert "floor" in _validation_imports("bench") and "problem" in _validation_imports("bench")
+    assert "bench" not in _validation_imports("floor")
+    assert "problem" in _validation_imports("floor")
+    assert not _validation_imports("problem") & {"bench", "floor"}

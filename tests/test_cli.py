@@ -2,7 +2,6 @@
 
 import json
 import os
-import signal
 import subprocess
 import sys
 import time
@@ -11,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from processes import DEADLINE_S, ctrl_c, start
 
 import skf_ref
 from skf_ref.cli import main
@@ -142,6 +142,26 @@ def test_errors_print_one_line_and_exit_2(tmp_path, monkeypatch, capsys, argumen
     assert not any((tmp_path / "out").glob("*")) if (tmp_path / "out").exists() else True
 
 
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["demo", "--montage", "foo"], "--montage: montage must be the name of an MNE built-in"),
+        (["demo", "--positions", "500"], "--positions: n_positions sizes the sphere's volume"),
+        (["sweep", "--out", "x.csv", "--montage", "foo"], "argument --montage: montage must be"),
+        (["sweep", "--out", "nodir/x.csv"], "argument --out: nodir/x.csv: the folder nodir"),
+    ],
+)
+def test_an_error_is_the_only_line_even_without_quiet(tmp_path, monkeypatch, capsys,
+                                                      arguments, message):  # fmt: skip
+    monkeypatch.chdir(tmp_path)
+    if arguments[0] == "demo":
+        arguments = [*arguments, "--out", str(tmp_path / "out")]
+    assert main(arguments) == 2
+    captured = capsys.readouterr()
+    assert captured.err.count("\n") == 1 and message in captured.err, captured.err
+    assert captured.out == "" and not any(tmp_path.iterdir())
+
+
 def test_console_script_entry_point_runs_without_traceback(tmp_path):
     result = subprocess.run(
         [sys.executable, "-m", "skf_ref.cli", "demo", "--snr-db", "inf", "--out", str(tmp_path)],
@@ -153,23 +173,26 @@ def test_console_script_entry_point_runs_without_traceback(tmp_path):
     assert "Traceback" not in result.stderr and result.stderr.count("\n") == 1
 
 
-def test_ctrl_c_stops_a_sweep_cleanly_and_it_resumes(tmp_path):
+@pytest.mark.slow  # a sweep on two workers, interrupted, then resumed: 20-30 s
+def test_ctrl_c_stops_a_parallel_sweep_in_one_line_and_it_resumes(tmp_path):
+    # Ctrl-C as a terminal sends it, to the sweep and its two workers, once rows are written:
+    # one line (no joblib note, no worker's traceback), status 130, every finished row kept
     out = tmp_path / "sweep.csv"
-    command = [sys.executable, "-m", "skf_ref.cli", "sweep", "--out", str(out), "--quiet"]
     grid = ["--positions", "500", "--seeds", "2", "--snr-db", "20", "30"]
-    command += grid
-    process = subprocess.Popen(command, env=ENV, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while process.poll() is None and time.monotonic() < deadline:
-        if out.exists() and out.read_bytes().count(b"\n") > 30:
-            break
-        time.sleep(0.01)
-    process.send_signal(signal.SIGINT)
-    _, err = process.communicate(timeout=60)
-    assert process.returncode == 130, err
-    assert "rerun to resume" in err and "Traceback" not in err
+    script = "import sys; from skf_ref.cli import console; sys.argv[0] = 'skf-ref'; console()"
+    process = start(script, "sweep", "--out", out, "--quiet", "--jobs", "2", *grid)
+    deadline = time.monotonic() + DEADLINE_S
+    while _lines(out) < 30 and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)  # polls the file the sweep writes: the signal waits for its rows
+    status, _, err = ctrl_c(process)
+    assert status == 130, err
+    assert err == f"skf-ref: interrupted; finished rows are in {out}: rerun to resume\n"
     partial = pd.read_csv(out)
     assert 0 < len(partial) < 192
     assert main(["sweep", "--out", str(out), *grid, "--quiet"]) == 0
     table = pd.read_csv(out)
     assert len(table) == 192  # 2 SNRs x 2 EP x 2 PM x 4 exponents x 3 smoothers x 2 seeds
+
+
+def _lines(path):
+    return path.read_bytes().count(b"\n") if path.exists() else 0

@@ -200,3 +200,85 @@ def test_the_channels_used_and_left_out_are_in_the_settings(cli, files, more_fil
     assert "63 channels used; not in the forward: Oz" in result.stderr
     channels = json.loads((tmp_path / "e.npz.json").read_text())["channels"]
     assert channels["left_out"] == {"not in the forward": ["Oz"]} and len(channels["used"]) == 63
+
+
+# --- outputs a user can trust: nothing replaced unless asked, no input ever -----------------
+
+
+def _array_route(files, out, *more):
+    return ["reconstruct", "--leadfield", str(files / "L.npy"), "--data", str(files / "Y.npy"),
+            "--noise-std", "1e-6", "--out", str(out), *more]  # fmt: skip
+
+
+@pytest.mark.parametrize("existing", ["out", "settings", "plot"])
+def test_an_existing_output_is_replaced_only_with_overwrite(cli, files, tmp_path, existing):
+    out, plot = tmp_path / "a.npz", tmp_path / "a.png"
+    path = {"out": out, "settings": tmp_path / "a.npz.json", "plot": plot}[existing]
+    path.write_text("a result of the user's")
+    result = cli(*_array_route(files, out, "--plot", str(plot)))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert f"{path} exists: give --overwrite to replace it" in result.stderr
+    assert path.read_text() == "a result of the user's"
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]  # refused before any work
+    result = cli(*_array_route(files, out, "--plot", str(plot), "--overwrite", "--quiet"))
+    assert result.returncode == 0, result.stderr
+    assert np.load(out)["z"].shape == (3762, 60) and plot.read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("flag", ["--data", "--leadfield"])
+def test_an_output_that_is_an_input_is_refused(cli, files, tmp_path, flag):
+    import shutil
+
+    for name in ("L.npy", "Y.npy"):
+        shutil.copy(files / name, tmp_path / name)
+    given = tmp_path / ("Y.npy" if flag == "--data" else "L.npy")
+    out = tmp_path / "result.npz"
+    out.symlink_to(given)  # the output's name leads to the input
+    before = given.read_bytes()
+    arguments = ["reconstruct", "--leadfield", str(tmp_path / "L.npy"), "--data"]
+    arguments += [str(tmp_path / "Y.npy"), "--noise-std", "1e-6", "--out", str(out)]
+    result = cli(*arguments, "--overwrite")
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert f"argument --out: {out} is the input {flag}" in result.stderr
+    assert given.read_bytes() == before
+
+
+@pytest.mark.parametrize("flag", ["--out", "--plot"])
+def test_a_folder_where_a_file_goes_is_refused_before_any_work(cli, files, tmp_path, flag):
+    folder = tmp_path / ("a.npz" if flag == "--out" else "a.png")
+    folder.mkdir()
+    out = folder if flag == "--out" else tmp_path / "b.npz"
+    result = cli(*_array_route(files, out, "--plot", str(tmp_path / "a.png")))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert f"argument {flag}: {folder} is a folder; give a file name" in result.stderr
+    assert ".skf-tmp" not in result.stderr
+    assert [p.name for p in tmp_path.iterdir()] == [folder.name] and not any(folder.iterdir())
+
+
+def test_a_vector_estimate_to_stc_is_refused_before_any_work(cli, files, tmp_path):
+    arguments = ["reconstruct", "--forward", str(files / "f-fwd.fif"), "--evoked"]
+    arguments += [str(files / "e-ave.fif"), "--noise-std", "1e-6", "--pick-ori", "vector"]
+    result = cli(*arguments, "--out", str(tmp_path / "v.stc"))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert "MNE writes a vector source estimate (--pick-ori vector) to .h5 only" in result.stderr
+    assert not any(tmp_path.iterdir())
+    assert cli(*arguments, "--out", str(tmp_path / "v.h5"), "--quiet").returncode == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v-stc.h5", "v.h5.json"]
+
+
+def test_an_estimate_in_stc_files_is_not_replaced_without_overwrite(cli, files, tmp_path):
+    (tmp_path / "e-vl.stc").write_text("an earlier estimate")  # what --out e.stc writes
+    arguments = ["reconstruct", "--forward", str(files / "f-fwd.fif"), "--evoked"]
+    arguments += [
+        str(files / "e-ave.fif"),
+        "--noise-std",
+        "1e-6",
+        "--out",
+        str(tmp_path / "e.stc"),
+    ]
+    result = cli(*arguments)
+    assert result.returncode == 2 and f"{tmp_path / 'e-vl.stc'} exists: give --overwrite" in (
+        result.stderr
+    )
+    assert cli(*arguments, "--overwrite", "--quiet").returncode == 0
+    assert mne.read_source_estimate(tmp_path / "e-vl.stc").data.shape[1] == 60

@@ -305,6 +305,56 @@ def test_unusable_csv_names_the_line(tmp_path, content, match):
         compare(CASES["original_skf"], path)
 
 
+@pytest.mark.parametrize("fmt", ["npz", "mat"])
+def test_a_changed_copy_of_a_pinned_case_is_refused(tmp_path, exported, fmt):
+    from skf_ref.conformance import write_case
+    from skf_ref.conformance.cases import Case
+
+    case = CASES["square"]
+    expected = {**case.expected, "z": 2 * case.expected["z"]}
+    changed = Case(**{**vars(case), "expected": expected})
+    path = write_case(changed, tmp_path / f"square.{fmt}")  # same name, same version
+    with pytest.raises(InputError, match=rf"square.{fmt} says it is case 'square' of confor"):
+        compare(path, {"z": expected["z"]})
+    assert compare(exported / f"square.{fmt}", {"z": case.expected["z"]}).agrees
+    renamed = Case(**{**vars(changed), "name": "my_square"})  # a case of one's own
+    assert compare(write_case(renamed, tmp_path / f"mine.{fmt}"), {"z": expected["z"]}).agrees
+
+
+@pytest.mark.parametrize("where", ["mapping", "npz", "mat"])
+def test_complex_outputs_are_refused_not_cast(tmp_path, where):
+    case = CASES["original_skf"]
+    z = case.expected["z"]
+    theirs = {"z": z + 1j * z, "log_likelihood": case.expected["log_likelihood"]}
+    if where == "npz":
+        np.savez(tmp_path / "mine.npz", **theirs)
+        theirs = tmp_path / "mine.npz"
+    elif where == "mat":
+        savemat(tmp_path / "mine.mat", theirs)
+        theirs = tmp_path / "mine.mat"
+    with pytest.raises(InputError, match=r"z is complex \(largest imaginary part .*\): an SKF"):
+        compare(case, theirs)
+    assert compare(case, {"z": z + 0j}).agrees  # an imaginary part of zero is no part
+    with pytest.raises(InputError, match=r"log_likelihood is complex"):
+        compare(case, {"log_likelihood": case.expected["log_likelihood"] + 1j})
+
+
+def test_only_the_outputs_of_their_file_are_read(tmp_path, exported):
+    import tracemalloc
+
+    case = CASES["original_skf"]
+    unused = np.zeros(8_000_000)  # 64 MB, a few kB compressed
+    np.savez_compressed(tmp_path / "mine.npz", **case.expected, notes=unused)
+    tracemalloc.start()
+    try:
+        result = compare(exported / "original_skf.npz", tmp_path / "mine.npz")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert result.agrees and result.ignored == ["notes"]
+    assert peak < unused.nbytes / 16, peak
+
+
 def test_a_file_that_is_not_a_case(tmp_path, exported):
     np.savez(tmp_path / "not.npz", z=np.ones((4, 7)))
     with pytest.raises(InputError, match=r"not.npz: not a conformance case: no variable 'case'"):
@@ -333,6 +383,15 @@ def test_command_line_compare(tmp_path, capsys):
 
 ERRORS = [
     (["compare", "{case}", "{wrong_shape}"], "z must have shape (4, 7) (n_sources, n_times)"),
+    (["compare", "{case}", "{nothing}", "--json", "{case}"], "must end in .json, got '.npz'"),
+    (["compare", "{case}", "{nothing}", "--json", "{to_case}"], "is the input CASE_FILE"),
+    (["compare", "{case}", "{nothing}", "--json", "{to_theirs}"], "is the input THEIRS"),
+    (["compare", "{case}", "{nothing}", "--json", "nodir/r.json"], "nodir/r.json: the folder"),
+    (["compare", "{case}", "{nothing}", "--json", "r.txt"], "must end in .json, got '.txt'"),
+    (["compare", "{case}", "{nothing}", "--json", "."], "--json must be a file name"),
+    (["compare", "{doubled}", "{nothing}"], "is not the suite's file (its sha256 differs"),
+    (["compare", "{not_archive}", "{nothing}"], "not_archive.npz: not an .npz archive"),
+    (["compare", "{case}", "{not_archive}"], "not_archive.npz: not an .npz archive"),
     (["compare", "{case}", "{nothing}"], "holds none of the outputs"),
     (["compare", "{case}", "missing.npz"], "missing.npz: no such file"),
     (["compare", "{case}", "{wrong_shape}", "--tolerance", "0"], "--tolerance: must be > 0"),
@@ -349,8 +408,15 @@ def _arguments(arguments, folder, exported):
     np.savez(folder / "nothing.npz", y=np.ones((4, 7)))
     case = dict(np.load(exported / "original_skf.npz")) | {"smoother": np.array("rts")}
     np.savez(folder / "bad_smoother.npz", **case)
+    doubled = dict(np.load(exported / "original_skf.npz")) | {"z": 2 * case["z"]}
+    np.savez(folder / "doubled.npz", **doubled)  # the same name and version, z doubled
+    (folder / "not_archive.npz").write_text("a text file named .npz")
     paths = {"case": exported / "original_skf.npz"}
-    paths |= {name: folder / f"{name}.npz" for name in ("wrong_shape", "nothing", "bad_smoother")}
+    names = ("wrong_shape", "nothing", "bad_smoother", "doubled", "not_archive")
+    paths |= {name: folder / f"{name}.npz" for name in names}
+    for link, target in (("to_case", paths["case"]), ("to_theirs", paths["nothing"])):
+        paths[link] = folder / f"{link}.json"  # a report name that leads to an input
+        paths[link].symlink_to(target)
     return [argument.format(**paths) for argument in arguments]
 
 
@@ -364,7 +430,9 @@ def test_command_line_errors_are_one_line_and_exit_2(
     assert main(arguments) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("skf-ref: error:") and message in err
-    assert sorted(tmp_path.iterdir()) == before  # nothing left behind
+    assert "pickle" not in err and ".skf-tmp" not in err
+    assert sorted(tmp_path.iterdir()) == before  # nothing left behind, no input replaced
+    assert all(path.stat().st_size > 0 for path in before)
 
 
 @pytest.mark.parametrize("arguments, message", ERRORS[:1])

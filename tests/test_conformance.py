@@ -228,6 +228,74 @@ def test_export_one_format_and_verify_a_changed_file(tmp_path):
     assert verify(tmp_path) == ["square.mat", "transition.mat"]
 
 
+@pytest.mark.parametrize("what", ["missing", "empty", "a file", "other files"])
+def test_verify_refuses_a_folder_with_nothing_to_verify(tmp_path, what):
+    directory = tmp_path / "cases"
+    if what == "a file":
+        directory.write_text("not a folder")
+    elif what != "missing":
+        directory.mkdir()
+        if what == "other files":
+            (directory / "notes.txt").write_text("mine")
+            (directory / "manifest.json").write_text("{}")
+    match = {
+        "missing": "cases does not exist",
+        "a file": "cases is a file, not a folder",
+    }.get(what, "cases holds no file of the conformance suite")
+    with pytest.raises(skf_ref.InputError, match=match):
+        verify(directory)
+
+
+def test_verify_names_a_changed_manifest(tmp_path):
+    export(tmp_path, formats=["npz"])
+    manifest_file = tmp_path / "manifest.json"
+    manifest_file.write_text(manifest_file.read_text().replace('"tolerance": 1e-06', '"x": 1'))
+    assert verify(tmp_path) == ["manifest.json"]
+
+
+def test_export_keeps_a_runner_the_user_adapted(tmp_path, capsys):
+    export(tmp_path, formats=["npz"])
+    mine = tmp_path / "run_cases.py"
+    mine.write_text(mine.read_text().replace("Replace with your SKF", "My own SKF"))
+    edited = mine.read_bytes()
+    with pytest.warns(UserWarning, match=r"run_cases.py differs from the runner .* kept as it"):
+        written = export(tmp_path, formats=["npz"])
+    assert mine.read_bytes() == edited
+    shipped = tmp_path / "run_cases_shipped.py"
+    assert shipped in written and shipped.read_bytes() == RUNNERS[1].read_bytes()
+    # the shipped copy, unchanged, is refreshed; the unchanged MATLAB runner is replaced
+    with pytest.warns(UserWarning, match="run_cases.py differs"):
+        export(tmp_path, formats=["npz"])
+    shipped.write_text("edited too")
+    with pytest.raises(skf_ref.InputError, match=r"run_cases.py and .*run_cases_shipped.py both"):
+        export(tmp_path, formats=["npz"])
+    assert mine.read_bytes() == edited and shipped.read_text() == "edited too"
+    # the command line says so in a note, after which the summary
+    shipped.unlink()
+    capsys.readouterr()
+    assert main(["conformance", "export", str(tmp_path), "--format", "npz"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith("skf-ref: note: ") and "kept as it is" in err[0]
+    assert err[1].startswith("wrote ") and len(err) == 2
+
+
+@pytest.mark.parametrize("name", ["../elsewhere/x", "/tmp/x", "a/b", "..", "", 3, None])
+def test_the_python_runner_refuses_a_case_name_that_is_no_file_name(tmp_path, exported, name):
+    import json
+    import shutil
+
+    folder = tmp_path / "cases"
+    shutil.copytree(exported, folder)
+    manifest_file = folder / "manifest.json"
+    manifest = json.loads(manifest_file.read_text())
+    manifest["cases"][1]["name"] = name
+    manifest_file.write_text(json.dumps(manifest))
+    runner = _python_runner()
+    with pytest.raises(SystemExit, match="which is not a plain file name"):
+        runner.run(folder, tmp_path / "out", runner.my_skf)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cases"]  # checked before any work
+
+
 @pytest.mark.parametrize(
     "arguments, match", [(["csv"], "format must be one of"), ([], "at least one")]
 )
@@ -345,7 +413,7 @@ def test_the_parser_knows_the_formats():
     "arguments, message",
     [
         (["conformance", "export", "out", "--format", "xlsx"], "argument --format: invalid"),
-        (["conformance", "export", "a_file"], "File exists"),
+        (["conformance", "export", "a_file"], "a_file is a file: give a folder"),
         (["conformance", "export"], "required: DIR"),
         (["conformance"], "required: ACTION"),
     ],

@@ -1,5 +1,8 @@
 """The demo as a library function (:func:`skf_ref.study.demo.run_demo`): what the CLI calls."""
 
+import contextlib
+import io
+
 import numpy as np
 import pytest
 
@@ -10,8 +13,17 @@ SMALL = dict(head="sphere", source_space="volume", n_positions=500)
 
 
 @pytest.fixture(scope="module")
-def demo():
-    return run_demo(**SMALL, verbose=False)
+def quiet_run():
+    """The small demo run quietly, and what it wrote to standard error meanwhile."""
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        result = run_demo(**SMALL, verbose=False)
+    return result, err.getvalue()
+
+
+@pytest.fixture(scope="module")
+def demo(quiet_run):
+    return quiet_run[0]
 
 
 def test_three_methods_on_the_data_with_and_without_the_deep_source(demo):
@@ -43,9 +55,8 @@ def test_nothing_is_written_without_a_folder_and_everything_with_one(demo, tmp_p
     assert sorted(p.name for p in (tmp_path / "new").iterdir()) == sorted(OUTPUTS)
 
 
-def test_progress_goes_to_the_log_unless_quiet(capfd):
-    run_demo(**SMALL, verbose=False)
-    assert capfd.readouterr().err == ""
+def test_progress_goes_to_the_log_unless_quiet(quiet_run, capfd):
+    assert quiet_run[1] == ""  # the fixture's run, quiet
     run_demo(**SMALL, verbose=True)
     err = capfd.readouterr().err
     assert "head: 4-shell sphere, volume grid" in err and "SKF and sLORETA:" in err

@@ -6,10 +6,13 @@ errors, by README's docs command in .ci/run).
 """
 
 import argparse
+import ast
+import configparser
 import doctest
 import importlib
 import re
 import sys
+from importlib import metadata
 from pathlib import Path
 
 import pytest
@@ -150,3 +153,56 @@ def test_citation_metadata_agree():
         assert title in citing, title
     assert "license = BSD-3-Clause" in (ROOT / "setup.cfg").read_text()
     assert (ROOT / "LICENSE").read_text().startswith("BSD 3-Clause License")
+
+
+def test_citation_references_carry_the_papers_dois_and_claim_no_repository():
+    yaml = pytest.importorskip("yaml")  # PyYAML comes with dask (the test extra)
+    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text())
+    dois = {ref["title"]: ref["doi"] for ref in cff["references"]}
+    assert dois == {
+        "Standardized Kalman filtering for dynamical source localization of concurrent "
+        "subcortical and cortical brain activity": "10.1016/j.clinph.2024.09.021",
+        "The Effect of Prior Parameters on Standardized Kalman Filter-Based EEG Source "
+        "Localization": "10.48550/arXiv.2507.23450",
+    }
+    # the repository has no public home yet: neither the citation nor the package claims one
+    assert not {"repository-code", "url", "repository"} & set(cff)
+    setup = (ROOT / "setup.cfg").read_text()
+    assert not re.search(r"^(url|project_urls)\s*=", setup, re.M)
+    citing = (DOCS / "citing.md").read_text()
+    for doi in dois.values():
+        assert f"doi:[{doi}](https://doi.org/{doi})" in citing
+    assert "arXiv:2507.23450" in citing
+
+
+def _conf_constants():
+    """docs/conf.py's module-level string and tuple constants, read without running it."""
+    found = {}
+    for node in ast.parse((DOCS / "conf.py").read_text()).body:
+        if isinstance(node, ast.Assign) and len(node.targets) == 1:
+            target = node.targets[0]
+            if isinstance(target, ast.Name):
+                try:
+                    found[target.id] = ast.literal_eval(node.value)
+                except ValueError:
+                    pass
+    return found
+
+
+def test_mathjax_is_served_from_the_site():
+    conf = _conf_constants()
+    path = conf["mathjax_path"]
+    # relative: a file of the site's _static folder, not a CDN's
+    assert "://" not in path and not path.startswith(("/", "//")), path
+    assert conf["MATHJAX_FILES"][0] == Path(path).name
+    docs_extra = configparser.ConfigParser()
+    docs_extra.read(ROOT / "setup.cfg")
+    assert conf["MATHJAX_DISTRIBUTION"] in docs_extra["options.extras_require"]["docs"]
+    try:
+        folder = metadata.distribution(conf["MATHJAX_DISTRIBUTION"]).locate_file(
+            f"{conf['MATHJAX_DISTRIBUTION']}/static/mathjax"
+        )
+    except metadata.PackageNotFoundError:
+        pytest.skip("the docs extra is not installed")
+    for name in conf["MATHJAX_FILES"]:
+        assert Path(folder, name).exists(), name

@@ -297,3 +297,43 @@ def test_a_process_noise_matrix_without_transition():
 def test_a_process_noise_matrix_with_a_random_walk():
     rec = reconstruct(**_with("q", 0.1 * np.eye(N))(), transition=1.0, method="dense")
     np.testing.assert_allclose(rec.z, reconstruct(**_valid(), method="dense").z, rtol=1e-12)
+
+
+# --- memory_limit: one check for every entry point that takes one --------------------------
+
+MEMORY_LIMITS = [
+    ("1G", TypeError, r"memory_limit must be a real number, got '1G' \(str\)"),
+    (float("nan"), ValueError, "memory_limit must be finite, got nan"),
+    (float("inf"), ValueError, "memory_limit must be finite, got inf"),
+    (-5, ValueError, "memory_limit must be > 0, got -5"),
+    (0, ValueError, "memory_limit must be > 0, got 0"),
+    (True, TypeError, "memory_limit must be a real number, got True"),
+]
+
+
+@pytest.mark.parametrize("value, error, match", MEMORY_LIMITS)
+def test_check_memory_limit(value, error, match):
+    from skf_ref._utils.checks import check_memory_limit
+
+    with pytest.raises(error, match=match):
+        check_memory_limit(value)
+
+
+def test_check_memory_limit_passes_a_budget_or_none():
+    from skf_ref._utils.checks import check_memory_limit
+
+    assert check_memory_limit(None) is None and check_memory_limit(2**30) == 2.0**30
+
+
+@pytest.mark.parametrize("value, error, match", MEMORY_LIMITS)
+def test_apply_skf_raw_checks_memory_limit(mne_setup, value, error, match):
+    import mne
+
+    from skf_ref import apply_skf_raw, make_skf_operator
+
+    info = mne_setup["info"]
+    raw = mne.io.RawArray(np.zeros((len(info.ch_names), 50)), info, verbose=False)
+    raw.set_eeg_reference("average", projection=True, verbose=False)
+    operator = make_skf_operator(raw.info, mne_setup["forward"], noise_std=1e-6, verbose=False)
+    with pytest.raises(error, match=match):
+        apply_skf_raw(raw, operator, memory_limit=value)

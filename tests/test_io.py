@@ -110,7 +110,7 @@ def test_raw_recordings_are_read_through_mne(tmp_path, mne_setup):
     [
         ("missing.npy", None, "missing.npy: no such file"),
         ("x.xlsx", b"PK", r"unknown lead-field format '.xlsx'"),
-        ("x.npy", b"not numpy", "cannot be read as a NumPy array"),
+        ("x.npy", b"not numpy", r"x.npy: not a NumPy .npy file$"),
         ("x.mat", b"garbage", "cannot be read as a MATLAB v5 file"),
         ("x.npy", "1-D", r"must have shape \(n_channels, n_sources\), got \(3,\)"),
         ("x.npz", "two", r"holds \['a', 'b'\]: say which is meant"),
@@ -151,7 +151,7 @@ def test_written_results(tmp_path, mne_setup):
     np.testing.assert_array_equal(saved["amplitude"], rec.amplitude(3))
     assert float(saved["exponent"]) == 1.25 and str(saved["smoother"]) == "none"
     assert str(saved["skf_ref_version"]) and float(saved["log_likelihood"]) == rec.log_likelihood
-    with pytest.raises(InputError, match="written to .npz"):
+    with pytest.raises(InputError, match=r"r.csv: must end in .npz, got '.csv'"):
         write_reconstruction(tmp_path / "r.csv", rec)
     evoked = mne_setup["make_epochs"](target=300, seed=5).average()
     stc = apply_skf(evoked, mne_setup["forward"], noise_std=1e-6)
@@ -162,47 +162,195 @@ def test_written_results(tmp_path, mne_setup):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["est-stc.h5", "est-vl.stc", "r.npz"]
 
 
-# --- CSV layouts, read off the content ------------------------------------------------------
+# --- only what is asked for is read; what is not an archive is told so -------------------
 
 
-def _csv_files(folder):
-    """Y written the ways people write it: (file, names expected, times expected)."""
-    frame = pd.DataFrame(Y, index=NAMES, columns=TIMES)
-    files = {
-        "names and times": (frame.to_csv, True, True),
-        "numbers only (np.savetxt)": (lambda p: np.savetxt(p, Y, delimiter=","), False, False),
-        "times, no names (index=False)": (lambda p: frame.to_csv(p, index=False), False, True),
-        "names, no times (header=False)": (lambda p: frame.to_csv(p, header=False), True, False),
-        "UTF-8 BOM": (lambda p: frame.to_csv(p, encoding="utf-8-sig"), True, True),
-    }
-    for i, (name, (write, names, times)) in enumerate(files.items()):
-        path = folder / f"y{i}.csv"
-        write(path)
-        yield name, path, names, times
+def test_an_unused_array_of_an_npz_is_never_decompressed(tmp_path):
+    import tracemalloc
 
-
-def test_csv_layouts_are_read_off_the_content(tmp_path):
-    for layout, path, names, times in _csv_files(tmp_path):
+    path = tmp_path / "y.npz"
+    unused = np.zeros(8_000_000)  # 64 MB, compressed to a few kB
+    np.savez_compressed(path, Y=Y, times=TIMES, ch_names=np.array(NAMES), unused=unused)
+    tracemalloc.start()
+    try:
         read = read_data(path)
-        np.testing.assert_allclose(read.data, Y, rtol=1e-15, err_msg=layout)
-        assert read.ch_names == (NAMES if names else None), layout
-        if times:
-            np.testing.assert_allclose(read.times, TIMES, err_msg=layout)
-        else:
-            assert read.times is None, layout
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    np.testing.assert_array_equal(read.data, Y)
+    assert peak < unused.nbytes / 16, peak
 
 
+@pytest.mark.parametrize("content", [b"not an archive", b"\x93NUMPY\x01\x00garbage", b""])
+@pytest.mark.parametrize("reader", [read_data, read_leadfield])
+def test_a_file_named_npz_that_is_no_archive_is_told_so(tmp_path, content, reader):
+    path = tmp_path / "x.npz"
+    path.write_bytes(content)
+    with pytest.raises(InputError, match=r"x.npz: not an .npz archive") as info:
+        reader(path)
+    assert "pickle" not in str(info.value)  # numpy's advice to load it unsafely: never
+    if content.startswith(b"\x93NUMPY"):
+        assert "it is a NumPy .npy array (name it .npy)" in str(info.value)
+
+
+@pytest.mark.parametrize("fmt", ["npy", "npz"])
+def test_pickled_objects_are_refused_as_such(tmp_path, fmt):
+    objects = np.array([{"a": 1}, None], dtype=object)
+    path = tmp_path / f"x.{fmt}"
+    if fmt == "npy":
+        np.save(path, objects, allow_pickle=True)
+    else:
+        np.savez(path, Y=objects)
+    with pytest.raises(InputError, match=r"holds Python objects \(a pickle\), which skf_ref") as e:
+        read_data(path)
+    assert "allow_pickle" not in str(e.value)
+
+
+# --- MATLAB matrices keep their dimensions ---------------------------------------------------
+
+
+@pytest.mark.parametrize("v73", [False, True], ids=["v5", "v7.3"])
+@pytest.mark.parametrize("shape", [(5, 1), (1, 7), (1, 1)])
+def test_a_mat_matrix_with_one_column_or_row_stays_a_matrix(tmp_path, v73, shape):
+    path = tmp_path / "x.mat"
+    matrix = RNG.standard_normal(shape)
+    if v73:
+        _v73(path, L=matrix)
+    else:
+        savemat(path, {"L": matrix})
+    read = read_leadfield(path)
+    assert read.data.shape == shape
+    np.testing.assert_array_equal(read.data, matrix)
+    assert read_data(path).data.shape == shape
+
+
+def test_mat_times_and_names_are_vectors(tmp_path):
+    path = tmp_path / "y.mat"
+    savemat(path, {"Y": Y, "times": TIMES[None], "ch_names": np.array(NAMES, dtype=object)})
+    read = read_data(path)
+    np.testing.assert_array_equal(read.times, TIMES)
+    assert read.ch_names == NAMES
+
+
+# --- channel names: one per row, none twice --------------------------------------------------
+
+
+@pytest.mark.parametrize("fmt", ["npz", "mat"])
 @pytest.mark.parametrize(
-    "content",
+    "names, match",
     [
-        "Fp1,Fp2,Cz\n1.0,2.0,3.0\n4.0,5.0,6.0\n",  # channels in columns (times x channels)
-        "0.0,0.1\n1.0,2.0\n3.0,4.0\n",  # two samples: a row of times, or of data?
-        ",0.0,0.1,0.2\nE1,1,2,3\n4,5,6,7\n",  # named and unnamed rows
-        "",
+        (["E0", "E1", "E2", "E1", "E4"], r"ch_names holds 'E1' twice \(positions 2 and 4\)"),
+        (["E0", "E1", "E2", "E3"], r"4 names in ch_names for 5 rows"),
+        (["E0", "E1", " ", "E3", "E4"], r"ch_names has an empty name at position 3"),
     ],
 )
-def test_a_csv_that_fits_no_layout_is_refused_showing_the_layout(tmp_path, content):
-    path = tmp_path / "x.csv"
-    path.write_text(content)
-    with pytest.raises(InputError, match=r"x.csv: .*expected channels in rows and times in"):
-        read_data(path)
+def test_channel_names_named_twice_or_miscounted_are_refused(tmp_path, fmt, names, match):
+    path = tmp_path / f"x.{fmt}"
+    if fmt == "npz":
+        np.savez(path, Y=Y, L=L, ch_names=np.array(names))
+    else:
+        savemat(path, {"Y": Y, "L": L, "ch_names": np.array(names, dtype=object)})
+    for reader, key in ((read_data, "Y"), (read_leadfield, "L")):
+        with pytest.raises(InputError, match=match):
+            reader(path, key=key)
+
+
+# --- writers: their arguments checked, errors naming the user's path ------------------------
+
+
+def test_every_writer_names_a_swapped_or_wrong_argument(tmp_path, mne_setup):
+    from skf_ref.conformance import build, cases, export, write_case
+    from skf_ref.io import stc_to_zarr, to_zarr
+    from skf_ref.study.sweep import run_sweep
+
+    def small_grid():
+        axes = ("snr_db", "ep_snr_db", "pm_snr_db", "exponent", "smoother", "seed")
+        return dict(zip(axes, ([20.0], [0.0], [0.0], [0.5], [None], [0]), strict=True))
+
+    rec = reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1)
+    stc = apply_skf(mne_setup["make_epochs"](target=300, seed=5).average(),
+                    mne_setup["forward"], noise_std=1e-6)  # fmt: skip
+    path = tmp_path / "x"
+    calls = {
+        "write_stc(stc, path)": (lambda: write_stc(stc, path.with_suffix(".stc")), "path"),
+        "write_stc(path, rec)": (lambda: write_stc(path.with_suffix(".stc"), rec), "stc"),
+        "write_reconstruction(rec, path)": (
+            lambda: write_reconstruction(rec, path.with_suffix(".npz")),
+            "path",
+        ),
+        "write_reconstruction(path, stc)": (
+            lambda: write_reconstruction(path.with_suffix(".npz"), stc),
+            "reconstruction",
+        ),
+        "to_zarr(path, rec)": (lambda: to_zarr(path.with_suffix(".zarr"), rec), "path"),
+        "to_zarr(rec, 3)": (lambda: to_zarr(rec, 3), "path"),
+        "stc_to_zarr(rec, src, None, ...)": (
+            lambda: stc_to_zarr(rec, mne_setup["forward"]["src"], None, 0.0, 1e-3),
+            "path",
+        ),
+        "write_case(path, case)": (
+            lambda: write_case(path.with_suffix(".npz"), cases()[0]),
+            "path",
+        ),  # fmt: skip
+        "export(3)": (lambda: export(3), "directory"),
+        "build(None)": (lambda: build(None), "directory"),
+        "run_sweep(grid, 3)": (lambda: run_sweep(small_grid(), 3, verbose=False), "out"),
+    }
+    for call, (write, name) in calls.items():
+        with pytest.raises(TypeError, match=f"^{name} must be ") as info:
+            write()
+        assert "got" in str(info.value), call
+    assert not any(tmp_path.iterdir())
+
+
+def test_a_reconstruction_written_where_it_cannot_be_names_the_user_s_path(tmp_path):
+    rec = reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1)
+    missing = tmp_path / "nodir" / "o.npz"
+    with pytest.raises(InputError, match=f"^{missing}: the folder {missing.parent} does not"):
+        write_reconstruction(missing, rec)
+    folder = tmp_path / "o.npz"
+    folder.mkdir()
+    with pytest.raises(InputError, match=f"^{folder} is a folder; give a file name"):
+        write_reconstruction(folder, rec)
+    assert [p.name for p in tmp_path.iterdir()] == ["o.npz"] and not any(folder.iterdir())
+
+
+def test_a_vector_estimate_is_refused_as_stc_before_anything_is_written(tmp_path, mne_setup):
+    from skf_ref.io.files import stc_files
+
+    evoked = mne_setup["make_epochs"](target=300, seed=5).average()
+    vector = apply_skf(evoked, mne_setup["forward"], noise_std=1e-6, pick_ori="vector")
+    with pytest.raises(
+        InputError, match=r"est.stc: MNE writes a VolVectorSourceEstimate to .h5 only"
+    ):
+        write_stc(tmp_path / "est.stc", vector)
+    assert not any(tmp_path.iterdir())
+    (written,) = write_stc(tmp_path / "est.h5", vector)
+    assert written.name == "est-stc.h5"
+    assert [p.name for p in stc_files(tmp_path / "a-vl.stc", "SourceEstimate")] == [
+        "a-lh.stc",
+        "a-rh.stc",
+    ]
+    with pytest.raises(InputError, match="MNE writes several volumes to .h5 only"):
+        stc_files(tmp_path / "a.stc", "VolSourceEstimate", n_volumes=2)
+
+
+def test_write_stc_removes_what_a_killed_writer_left_and_nothing_else(tmp_path, mne_setup):
+    import subprocess
+    import sys
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale = tmp_path / f".est-vl.stc.skf-tmp-{dead.pid}-abcd1234"
+    stale.mkdir()
+    (stale / ".skf_ref_temporary").touch()
+    (stale / "est-vl.stc").write_bytes(b"half an estimate")
+    look_alike = tmp_path / f".est-vl.stc.skf-tmp-{dead.pid}-user"  # no mark: the user's
+    look_alike.mkdir()
+    (look_alike / "notes.txt").write_text("kept")
+    evoked = mne_setup["make_epochs"](target=300, seed=5).average()
+    stc = apply_skf(evoked, mne_setup["forward"], noise_std=1e-6)
+    for _ in range(2):  # a rerun leaves nothing either
+        assert [p.name for p in write_stc(tmp_path / "est.stc", stc)] == ["est-vl.stc"]
+        names = sorted(p.name for p in tmp_path.iterdir())
+        assert names == [look_alike.name, "est-vl.stc"]

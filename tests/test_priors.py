@@ -120,6 +120,7 @@ L_OK = np.array([[1.0, 0.0], [0.0, 4.0], [0.0, 0.0]])
         ),
         (lambda: priors_from_snr(L_OK, 0.1, 0.0, 0.0, 0), ValueError, "n_steps must be >= 1"),
         (lambda: priors_from_snr(L_OK, 0.1, 0.0, "20", 5), TypeError, "ep_snr_db must be a real"),
+        (lambda: priors_from_snr(L_OK, 0.1, "auto", 0.0, 5), ValueError, "are skf_ref.tune's"),
     ],
 )
 def test_invalid_inputs(call, error, match):

@@ -135,6 +135,7 @@ def _verdict(cell):
     return cell.strip().strip("*")
 
 
+@pytest.mark.slow  # the quick report, run twice: 2-4 minutes (.ci/run runs it)
 class TestReport:
     def test_quick_run_leaves_the_committed_report_alone(self, reports, committed_report):
         files, status = committed_report

@@ -50,3 +50,21 @@ def test_a_byte_order_mark_is_read_past(results):
     with ResultsFile(with_bom) as resumed:
         resumed.add([ROW | dict(seed=3)])
     assert list(read_results(with_bom)["seed"]) == [0, 3]
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_writing_through_a_symbolic_link_updates_the_file_it_points_to(tmp_path, suffix):
+    target = tmp_path / "runs" / f"all{suffix}"
+    target.parent.mkdir()
+    with ResultsFile(target) as first:
+        first.add([ROW])
+    link = tmp_path / f"link{suffix}"
+    link.symlink_to(target)
+    with ResultsFile(link) as resumed:
+        assert len(resumed.existing) == 1
+        resumed.add([ROW | dict(seed=1)])
+    assert link.is_symlink() and link.resolve() == target.resolve()
+    assert list(read_results(target)["seed"]) == [0, 1]  # the linked file has every row
+    assert sorted(p.name for p in target.parent.iterdir() if not p.name.endswith(".lock")) == [
+        target.name
+    ]

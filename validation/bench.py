@@ -39,78 +39,23 @@ timing.
 
 import argparse
 import sys
+from collections.abc import Callable, Sequence
 from contextlib import nullcontext
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from skf_ref._utils.atomic_files import atomic_path
-from skf_ref._utils.provenance import blas_threads, machine
+from skf_ref._utils.provenance import machine
 from validation import floor, timing
+from validation.problem import blas_columns, make_problem, skf_runner
 
 SIZES = ((600, 64, 41), (1500, 64, 41), (9000, 64, 41), (9000, 64, 1000), (150000, 128, 1000))
 PATHS = ("filterpy", "dense", "spectral", "tune", "apply_skf", "mne-sloreta", "mne-sloreta+make")
-MONTAGES = {32: "biosemi32", 64: "biosemi64", 128: "biosemi128", 256: "biosemi256"}
 #: The heading of the table's section of results.md (what the table run replaces).
 TABLE_HEADING = "## Every path"
-
-
-def make_problem(n_columns, n_channels, n_times, seed=0):
-    """Head model, data and SNR priors for one benchmark size.
-
-    Parameters
-    ----------
-    n_columns : int
-        Lead-field columns, three per position (free orientation).
-    n_channels : int
-        One of the BioSemi montage sizes (32, 64, 128, 256).
-    n_times : int
-    seed : int
-
-    Returns
-    -------
-    dict
-        ``head`` (:class:`skf_ref.study.scenario.HeadModel`), ``Y`` (n_channels, n_times),
-        ``noise_std``, ``theta0``, ``q``.
-    """
-    from skf_ref import priors_from_snr
-    from skf_ref.study.scenario import make_head_model
-
-    if n_channels not in MONTAGES:
-        raise ValueError(f"n_channels must be one of {sorted(MONTAGES)}, got {n_channels}")
-    head = make_head_model(n_positions=n_columns // 3, montage=MONTAGES[n_channels])
-    rng = np.random.default_rng(seed)
-    L = head.leadfield
-    column = int(rng.integers(L.shape[1]))
-    waveform = 10e-9 * np.sin(2 * np.pi * np.arange(n_times) / 40)
-    clean = np.outer(L[:, column], waveform)
-    noise_std = 0.1 * np.max(np.abs(clean))
-    Y = clean + noise_std * rng.standard_normal(clean.shape)
-    theta0, q = priors_from_snr(L, noise_std, pm_snr_db=0, ep_snr_db=20, n_steps=n_times)
-    return dict(head=head, Y=Y, noise_std=noise_std, theta0=theta0, q=q)
-
-
-def skf_runner(problem, method):
-    """``reconstruct(...).z`` of ``problem``, smoothed ("rts-standardized", exponent 1.25)."""
-    from skf_ref import reconstruct
-
-    L = problem["head"].leadfield
-
-    def run():
-        rec = reconstruct(
-            L,
-            problem["Y"],
-            noise_std=problem["noise_std"],
-            theta0=problem["theta0"],
-            q=problem["q"],
-            exponent=1.25,
-            smoother="rts-standardized",
-            method=method,
-        )
-        return rec.z  # the spectral path computes outputs on access
-
-    return run
 
 
 def _mne_inputs(problem):
@@ -186,34 +131,6 @@ def _not_runnable(path, n_columns, n_times):
     return needed if needed > memory.available_memory() / 2 else None
 
 
-def blas_columns(blas_limit=None):
-    """What the BLAS libraries run on now, as the columns every benchmark row records.
-
-    Parameters
-    ----------
-    blas_limit : int, optional
-        The ``--blas-threads`` limit the benchmark runs under (None: not limited).
-
-    Returns
-    -------
-    dict
-        ``blas``: each library with its version and threads, e.g.
-        ``"openblas 0.3.30 (2 threads)"``, ``"; "``-separated (``"none"`` if none is
-        loaded); ``blas_threads``: the largest thread count of any of them (1 if none);
-        ``blas_limit``: ``blas_limit``, or ``"none"``.
-    """
-    blas = blas_threads()
-    described = [
-        f"{b['library']} {b['version']} ({b['threads']} thread{'s' * (b['threads'] != 1)})"
-        for b in blas
-    ]
-    return dict(
-        blas="; ".join(described) or "none",
-        blas_threads=max((b["threads"] for b in blas), default=1),
-        blas_limit="none" if blas_limit is None else blas_limit,
-    )
-
-
 def _limited(blas_limit):
     """``threadpool_limits`` to ``blas_limit`` BLAS threads, or no limit for None."""
     if blas_limit is None:
@@ -223,14 +140,24 @@ def _limited(blas_limit):
     return threadpool_limits(limits=blas_limit, user_api="blas")
 
 
-def benchmark(sizes=SIZES, paths=PATHS, repeats=5, progress=print, blas_limit=None, busy=False):
+def benchmark(
+    sizes: Sequence[tuple[int, int, int]] = SIZES,
+    paths: Sequence[str] = PATHS,
+    repeats: int = 5,
+    progress: Callable[[str], object] = print,
+    blas_limit: int | None = None,
+    busy: bool = False,
+) -> pd.DataFrame:
     """Run every path at every size.
 
     Parameters
     ----------
     sizes : sequence of (n_columns, n_channels, n_times)
+        The sizes to run, each with :func:`~validation.problem.make_problem`.
     paths : sequence of str
+        Of :data:`PATHS`.
     repeats : int
+        Runs timed per row at most (:func:`validation.timing.measure`).
     progress : callable
         Called with one line per finished row.
     blas_limit : int, optional
@@ -252,7 +179,9 @@ def benchmark(sizes=SIZES, paths=PATHS, repeats=5, progress=print, blas_limit=No
         for n_columns, n_channels, n_times in sizes:
             problem = make_problem(n_columns, n_channels, n_times)
             for path in paths:
-                row = dict(n_columns=n_columns, n_channels=n_channels, n_times=n_times)
+                row: dict[str, Any] = dict(
+                    n_columns=n_columns, n_channels=n_channels, n_times=n_times
+                )
                 row["path"] = path
                 needed = _not_runnable(path, n_columns, n_times)
                 if needed is not None:
@@ -281,7 +210,7 @@ def _format_row(row):
     )
 
 
-def targets(table):
+def targets(table: pd.DataFrame) -> list[str]:
     """The issue's four performance targets, read off a results table.
 
     Parameters
@@ -301,19 +230,19 @@ def targets(table):
     lines = []
     key = (1500, 64, 41)
     if (*key, "filterpy") in seconds and (*key, "spectral") in seconds:
-        ratio = seconds[(*key, "filterpy")] / seconds[(*key, "spectral")]
+        ratio = seconds[key + ("filterpy",)] / seconds[key + ("spectral",)]
         lines.append(f"- spectral vs filterpy at 1500 columns: {ratio:.0f}x faster (target 1000x)")
     key = (9000, 64, 41)
     if (*key, "spectral") in seconds:
         lines.append(
-            f"- paper scale, smoothed: {seconds[(*key, 'spectral')]:.3f} s (target < 1 s)"
+            f"- paper scale, smoothed: {seconds[key + ('spectral',)]:.3f} s (target < 1 s)"
         )
     key = (9000, 64, 1000)
     if (*key, "spectral") in seconds and (*key, "mne-sloreta") in seconds:
-        ratio = seconds[(*key, "spectral")] / seconds[(*key, "mne-sloreta")]
+        ratio = seconds[key + ("spectral",)] / seconds[key + ("mne-sloreta",)]
         lines.append(f"- (9000, 64, 1000): {ratio:.1f}x MNE's sLORETA time (target <= 2x)")
     if (*key, "apply_skf") in seconds and (*key, "mne-sloreta+make") in seconds:
-        ratio = seconds[(*key, "apply_skf")] / seconds[(*key, "mne-sloreta+make")]
+        ratio = seconds[key + ("apply_skf",)] / seconds[key + ("mne-sloreta+make",)]
         lines.append(
             f"- (9000, 64, 1000): apply_skf {ratio:.2f}x MNE's make_inverse_operator + "
             "apply_inverse sLORETA (target <= 2x)"
@@ -321,20 +250,20 @@ def targets(table):
     key = (150000, 128, 1000)
     if (*key, "spectral") in seconds:
         lines.append(
-            f"- 150000 columns x 1000 steps, smoothed z: {seconds[(*key, 'spectral')]:.1f} s, "
-            f"{peak[(*key, 'spectral')] / 1024:.2f} GiB traced peak (target: within 1.15x its "
+            f"- 150000 columns x 1000 steps, smoothed z: {seconds[key + ('spectral',)]:.1f} s, "
+            f"{peak[key + ('spectral',)] / 1024:.2f} GiB traced peak (target: within 1.15x its "
             "floor quiet and 1.5x beside a competitor, the section below)"
         )
     for key, target in (((9000, 64, 41), 0.5), ((150000, 128, 1000), 5.0)):
         if (*key, "tune") in seconds:
             lines.append(
-                f"- tuning PM-SNR and EP-SNR at {key}: {seconds[(*key, 'tune')]:.2f} s "
+                f"- tuning PM-SNR and EP-SNR at {key}: {seconds[key + ('tune',)]:.2f} s "
                 f"(target < {target:g} s)"
             )
     return lines
 
 
-def to_markdown(table):
+def to_markdown(table: pd.DataFrame) -> str:
     """The results as a markdown table.
 
     Parameters
@@ -367,7 +296,7 @@ def to_markdown(table):
     return "\n".join(lines) + "\n"
 
 
-def report(table, blas_limit=None):
+def report(table: pd.DataFrame, blas_limit: int | None = None) -> str:
     """The table's section of results.md: machine, BLAS and its threads, table, targets.
 
     Parameters
@@ -393,7 +322,7 @@ def report(table, blas_limit=None):
     )
 
 
-def header_lines(table=None, blas_limit=None):
+def header_lines(table: pd.DataFrame | None = None, blas_limit: int | None = None) -> list[str]:
     """The report's header: machine, package versions, BLAS libraries and their threads.
 
     The BLAS line is read from the table's rows (what each timing ran with), so it cannot
@@ -419,7 +348,7 @@ def header_lines(table=None, blas_limit=None):
     ]
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     """Command line entry point; returns the exit status."""
     try:
         args = parse_args(argv)
@@ -476,7 +405,7 @@ class _Parser(argparse.ArgumentParser):
         raise ValueError(message)
 
 
-def parse_args(argv=None):
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     """The command line's options, checked.
 
     Parameters

@@ -26,10 +26,13 @@ tasks runnable before each run are recorded beside every number.
 """
 
 import time
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
 from validation import timing
+from validation.problem import blas_columns, skf_runner
 
 __all__ = ["HEADING", "SIZE", "TARGETS", "compare", "floor_runner", "to_markdown"]
 
@@ -42,14 +45,17 @@ TARGETS = {"quiet": 1.15, "competitor": 1.5}
 EXPONENT = 1.25
 
 
-def floor_runner(problem, exponent=EXPONENT):
+def floor_runner(
+    problem: dict[str, Any], exponent: float = EXPONENT
+) -> Callable[[], dict[str, float]]:
     """A callable that does the floor's work once and returns its parts' wall times.
 
     Parameters
     ----------
     problem : dict
-        As :func:`validation.bench.make_problem` returns.
+        As :func:`validation.problem.make_problem` returns.
     exponent : float
+        The standardization exponent of the elementwise pass.
 
     Returns
     -------
@@ -66,7 +72,7 @@ def floor_runner(problem, exponent=EXPONENT):
     coefficients = rng.standard_normal((T, V.shape[1]))
     weights = rng.uniform(0.1, 1.0, (T, V.shape[1])) @ V.T**2  # positive
 
-    def run():
+    def run() -> dict[str, float]:
         start = time.perf_counter()
         thin_svd(Lw)
         svd = time.perf_counter()
@@ -89,18 +95,24 @@ def _timed(run):
     return wall, cpu, load, parts if isinstance(parts, dict) else {}
 
 
-def compare(problem, repeats=7, busy=False, progress=print):
+def compare(
+    problem: dict[str, Any],
+    repeats: int = 7,
+    busy: bool = False,
+    progress: Callable[[str], object] = print,
+) -> dict[str, Any]:
     """Alternate floor and path runs; their times and ratios.
 
     Parameters
     ----------
     problem : dict
-        As :func:`validation.bench.make_problem` returns.
+        As :func:`validation.problem.make_problem` returns.
     repeats : int
         Pairs of runs timed (after one pair not timed, which warms both up).
     busy : bool
         Run beside a competitor (:func:`validation.timing.competitor`).
     progress : callable
+        Called with one line per pair timed.
 
     Returns
     -------
@@ -108,8 +120,6 @@ def compare(problem, repeats=7, busy=False, progress=print):
         One row: ``condition``, the floor's and the path's median wall and CPU time, the
         floor's parts, the median ratios (wall and CPU) with their quartiles, the load.
     """
-    from validation.bench import blas_columns, skf_runner
-
     floor, path = floor_runner(problem), skf_runner(problem, "spectral")
     pairs = []
     with timing.competitor(busy):
@@ -124,7 +134,8 @@ def compare(problem, repeats=7, busy=False, progress=print):
     ratio = timing.quartiles([p[0] / f[0] for f, p in pairs])
     cpu_ratio = timing.quartiles([p[1] / f[1] for f, p in pairs])
     loads = [run[2] for pair in pairs for run in pair]
-    n, m, T = (problem["head"].leadfield.shape[1], *problem["Y"].shape)
+    n = problem["head"].leadfield.shape[1]
+    m, T = problem["Y"].shape
     condition = "competitor" if busy else "quiet"
     row = dict(
         n_columns=n,
@@ -154,7 +165,7 @@ def compare(problem, repeats=7, busy=False, progress=print):
     return row
 
 
-def to_markdown(rows, header=()):
+def to_markdown(rows: Sequence[dict[str, Any]], header: Sequence[str] = ()) -> str:
     """The comparison as a markdown section (heading included), ``header`` lines first."""
     lines = [
         HEADING,

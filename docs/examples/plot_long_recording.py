@@ -70,12 +70,13 @@ print("settings in the store:", {key: store.attrs[key] for key in ("method", "ex
 # %%
 # Read back, and compared with the output in memory
 # -------------------------------------------------
-# Reading the store needs zarr only. The same output computed whole in memory is equal to
-# it, value for value.
+# Reading the store needs zarr only. The same output computed whole in memory equals it to
+# rounding (its blocks are products of other shapes, which BLAS rounds differently).
 
 z_disk = zarr.open_group(folder / "skf.zarr", mode="r")["z"]
 z_memory = rec.z
-print("equal to the in-memory z:", np.array_equal(z_disk[:], z_memory))
+difference = np.max(np.abs(z_disk[:] - z_memory)) / np.max(np.abs(z_memory))
+print(f"largest difference from the in-memory z: {difference:.1e} of its largest value")
 
 # %%
 # A reader needs only the rows it uses: here the positions within 15 mm of each true

@@ -9,7 +9,9 @@ reshaped or cast silently.
 """
 
 import numbers
-from collections.abc import Collection, Sequence
+import os
+from collections.abc import Collection, Iterable, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -26,6 +28,9 @@ __all__ = [
     "check_instance",
     "check_int",
     "check_leadfield",
+    "check_memory_limit",
+    "check_names",
+    "check_path",
     "check_real",
     "check_scalar_or_spd",
     "check_spd",
@@ -283,3 +288,73 @@ def check_transition(value: Any, n: int) -> float | NDArray[np.float64]:
     if np.ndim(value) == 0:
         return check_real("transition", value)
     return check_array("transition", value, (n, n))
+
+
+def check_path(name: str, value: object) -> Path:
+    """``value`` as a :class:`~pathlib.Path` if it is a file name (``str`` or path-like).
+
+    Anything else (an array, a source estimate, ``bytes``, ``None``) raises an
+    :class:`InputTypeError` naming the parameter: a writer given its arguments in the
+    wrong order says so instead of failing inside :mod:`pathlib`.
+
+    Examples
+    --------
+    >>> check_path("path", "out/est.stc").name
+    'est.stc'
+    >>> check_path("path", 3.5)
+    Traceback (most recent call last):
+    ...
+    skf_ref._utils.checks.InputTypeError: path must be a file name (str or ...), got 3.5 (float)
+    """
+    if isinstance(value, str | os.PathLike) and not isinstance(value, bytes):
+        path = Path(value)
+        if str(path) not in ("", "."):
+            return path
+        raise InputError(f"{name} must be a file name, got {str(value)!r}")
+    raise InputTypeError(f"{name} must be a file name (str or path-like), got {describe(value)}")
+
+
+def check_memory_limit(value: object, name: str = "memory_limit") -> float | None:
+    """A memory budget in bytes: ``None`` (the default budget) or a finite number > 0.
+
+    One check for every ``memory_limit`` argument: ``"1G"`` is refused as text (give
+    ``2**30``), NaN and infinity as not finite, zero and negative budgets as such.
+
+    Examples
+    --------
+    >>> check_memory_limit(2**30)
+    1073741824.0
+    >>> check_memory_limit("1G")
+    Traceback (most recent call last):
+    ...
+    skf_ref._utils.checks.InputTypeError: memory_limit must be a real number, got '1G' (str)
+    """
+    if value is None:
+        return None
+    return check_real(name, value, positive=True)
+
+
+def check_names(name: str, names: Iterable[object], unit: str = "position") -> list[str]:
+    """Channel names as a list of ``str``: none empty, none given twice.
+
+    ``unit`` is what the message calls a name's place (``"position"``, ``"row"``).
+
+    Examples
+    --------
+    >>> check_names("ch_names", ["Fp1", "Cz", "Fp1"])
+    Traceback (most recent call last):
+    ...
+    skf_ref._utils.checks.InputError: ch_names holds 'Fp1' twice (positions 1 and 3): ...
+    """
+    labels = [str(label).strip() for label in names]
+    seen: dict[str, int] = {}
+    for position, label in enumerate(labels, start=1):
+        if not label:
+            raise InputError(f"{name} has an empty name at {unit} {position}")
+        if label in seen:
+            raise InputError(
+                f"{name} holds {label!r} twice ({unit}s {seen[label]} and {position}): each "
+                "channel needs a name of its own"
+            )
+        seen[label] = position
+    return labels

@@ -8,13 +8,14 @@ the same.
 
 import importlib
 from collections.abc import Callable, Mapping
+from typing import Any
 
 __all__ = ["attach"]
 
 
 def attach(
     package: str, homes: Mapping[str, str]
-) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
+) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
     """``__getattr__`` and ``__dir__`` for a package whose names live in its modules.
 
     Parameters
@@ -41,7 +42,7 @@ def attach(
     """
     namespace = importlib.import_module(package).__dict__
 
-    def __getattr__(name: str) -> object:
+    def __getattr__(name: str) -> Any:
         if name not in homes:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
         value = getattr(importlib.import_module(f".{homes[name]}", package), name)

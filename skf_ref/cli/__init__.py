@@ -17,20 +17,28 @@ import re
 import signal
 import sys
 
+TYPE_CHECKING = False  # typing.TYPE_CHECKING, without importing typing (mypy reads it so)
+if TYPE_CHECKING:
+    import argparse
+    from collections.abc import Callable, Sequence
+    from types import FrameType
+    from typing import NoReturn
+
 __all__ = ["build_parser", "console", "main"]
 
 _INTERRUPTED = "skf-ref: interrupted; files already written are complete"
 
 
-def build_parser():
+def build_parser() -> "argparse.ArgumentParser":
     """The ``skf-ref`` argument parser.
 
     Returns
     -------
     argparse.ArgumentParser
+        With a subcommand per command (``args.run(args)`` runs it).
     """
     from ..version import __version__
-    from . import compare, conformance, demo, reconstruct, sweep
+    from . import compare, conformance, demo, reconstruct, sweep, sys_info
     from ._args import Parser
 
     parser = Parser(
@@ -49,14 +57,15 @@ def build_parser():
     sweep.add_parser(subparsers)
     conformance.add_parser(subparsers)
     compare.add_parser(subparsers)
+    sys_info.add_parser(subparsers)
     return parser
 
 
-def _debug_asked(argv):
+def _debug_asked(argv: list[str]) -> bool:
     return "--debug" in (argv[: argv.index("--")] if "--" in argv else argv)
 
 
-def main(argv=None):
+def main(argv: "Sequence[str] | None" = None) -> int:
     """Entry point of ``skf-ref``; returns the exit status.
 
     Parameters
@@ -71,7 +80,7 @@ def main(argv=None):
         error, 130 when interrupted.
     """
     argv = sys.argv[1:] if argv is None else list(argv)
-    mistakes = (OSError, MemoryError)
+    mistakes: tuple[type[Exception], ...] = (OSError, MemoryError)
     try:
         from .._utils.checks import InputError
         from .._utils.extras import MissingDependencyError
@@ -99,7 +108,7 @@ def main(argv=None):
     return 0
 
 
-def _run_showing_warnings_on_success(args):
+def _run_showing_warnings_on_success(args: "argparse.Namespace") -> None:
     """``args.run(args)``; the warnings it raised are shown after it, only if it succeeds:
     an error is one line, with no third-party text around it."""
     import warnings
@@ -110,30 +119,99 @@ def _run_showing_warnings_on_success(args):
         warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
 
 
-def _interrupted_late(signum, frame):
-    print(_INTERRUPTED, file=sys.stderr)
-    os._exit(130)
+#: Interruptions seen while the command ran (one may have been swallowed on its way: a
+#: KeyboardInterrupt raised inside a finalizer is only printed, "Exception ignored ...").
+_SEEN: "list[int]" = []
 
 
-def console():
+def _interrupt(signum: int, frame: "FrameType | None") -> "NoReturn":
+    _SEEN.append(signum)
+    raise KeyboardInterrupt
+
+
+_INTERRUPTED_LINE = f"{_INTERRUPTED}\n".encode()
+
+
+def _end_now(
+    signum: "int | None" = None,
+    frame: "FrameType | None" = None,
+    _write: "Callable[[int, bytes], int]" = os.write,
+    _exit: "Callable[[int], NoReturn]" = os._exit,
+    _line: bytes = _INTERRUPTED_LINE,
+) -> None:
+    """Ctrl-C once the command is done: one line and status 130, at once. Everything it
+    uses is bound here, so that it works while the interpreter takes modules apart."""
+    _write(2, _line)
+    _exit(130)
+
+
+def _quiet_interrupts(hook: "Callable") -> "Callable":
+    """``sys.unraisablehook`` that drops a KeyboardInterrupt: it is reported by the status."""
+
+    def unraisable(info: "sys.UnraisableHookArgs") -> None:
+        if not isinstance(info.exc_value, KeyboardInterrupt):
+            hook(info)
+
+    return unraisable
+
+
+def _save_coverage() -> None:
+    """Save a coverage measurement of this process (a test run's), if one is running: its
+    own exit handler, registered before :func:`_exit_after_handlers`, never runs."""
+    coverage = sys.modules.get("coverage")
+    current = getattr(getattr(coverage, "Coverage", None), "current", lambda: None)()
+    if current is not None:
+        current.stop()
+        current.save()
+
+
+def _exit_after_handlers(
+    status: "list[int]", _exit: "Callable[[int], NoReturn]" = os._exit
+) -> None:
+    """The last exit handler (registered first): flush and end with ``status[0]``, before
+    the interpreter resets its signal handlers (a Ctrl-C then would kill the process
+    without a word) or turns an interruption it saw into a signal of its own."""
+    try:
+        _save_coverage()
+    except Exception:  # never fail the exit for a measurement
+        pass
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (AttributeError, OSError, ValueError):  # closed or replaced
+            pass
+    _exit(status[0])
+
+
+def console() -> "NoReturn":
     """The ``skf-ref`` console script: :func:`main`, then exit with its status.
 
-    Once :func:`main` has returned, every file is written and closed; Ctrl-C while the
-    interpreter shuts down (joblib's workers stopping) ends at once with one line and 130.
+    Ctrl-C at any moment ends with one line and status 130: while the command runs (it
+    stops, every file written is complete, :func:`main`); while it winds down (its exit
+    handlers stop joblib's workers) or after it, even when the interruption was caught and
+    dropped on the way (a KeyboardInterrupt inside a finalizer, which Python only prints):
+    files are complete, and the status says the run was interrupted.
     """
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-    status = main()
-    signal.signal(signal.SIGINT, _interrupted_late)
-    if status == 130:
-        # CPython remembers an interruption caught inside some imports and would end the
-        # process by SIGINT (status -2) however it was handled; every file is complete
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(130)
-    sys.exit(status)
+    import atexit
+
+    status = [0]
+    atexit.register(_exit_after_handlers, status)  # runs last, after joblib's handlers
+    sys.unraisablehook = _quiet_interrupts(sys.unraisablehook)
+    signal.signal(signal.SIGINT, _interrupt)
+    try:
+        status[0] = main()
+        signal.signal(signal.SIGINT, _end_now)
+    except KeyboardInterrupt:  # after main's own handling, before the line above
+        signal.signal(signal.SIGINT, _end_now)
+        print(_INTERRUPTED, file=sys.stderr)
+        status[0] = 130
+    if _SEEN and status[0] != 130:  # interrupted, and the interruption swallowed
+        print(_INTERRUPTED, file=sys.stderr)
+        status[0] = 130
+    sys.exit(status[0])
 
 
-def _one_line(err):
+def _one_line(err: BaseException) -> str:
     text = str(err) or type(err).__name__
     if isinstance(err, OSError) and err.filename is not None and str(err.filename) not in text:
         text = f"{text}: {err.filename}"

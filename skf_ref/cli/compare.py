@@ -1,9 +1,16 @@
 """``skf-ref compare``: your SKF's outputs against a conformance case; the likely mistake."""
 
+from __future__ import annotations
+
+import argparse
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from ._args import positive
+
+if TYPE_CHECKING:
+    from ..conformance.compare import Comparison
 
 __all__ = ["add_parser", "run"]
 
@@ -24,8 +31,14 @@ case file).
 """
 
 
-def add_parser(subparsers):
-    """Add ``compare`` to the ``skf-ref`` subcommands."""
+def add_parser(subparsers: Any) -> None:
+    """Add ``compare`` to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     parser = subparsers.add_parser(
         "compare",
         help="check your SKF's outputs against a conformance case and name the likely mistake",
@@ -47,11 +60,29 @@ def add_parser(subparsers):
     parser.set_defaults(run=run)
 
 
-def run(args):
-    """Run ``skf-ref compare``: print the report; exit status 1 when something disagrees."""
-    from .._utils.atomic_files import atomic_path
+def run(args: argparse.Namespace) -> Comparison:
+    """Run ``skf-ref compare``: print the report; exit status 1 when something disagrees.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    skf_ref.conformance.compare.Comparison
+        The comparison (when every output agrees: else ``SystemExit(1)``).
+    """
+    from .._utils.atomic_files import atomic_path, check_output_path
     from ..conformance.compare import compare
 
+    if args.json is not None:  # before any work: a folder that exists, no input replaced
+        check_output_path(
+            args.json,
+            name="argument --json",
+            suffixes=(".json",),
+            inputs={"CASE_FILE": args.case, "THEIRS": args.theirs},
+        )
     result = compare(args.case, args.theirs, tolerance=args.tolerance)
     if args.json is not None:
         with atomic_path(args.json) as tmp:

@@ -1,7 +1,11 @@
 """``skf-ref conformance export``: the pinned conformance suite, to check another SKF against."""
 
+from __future__ import annotations
+
+import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 __all__ = ["add_parser", "run_export"]
 
@@ -23,8 +27,14 @@ docs/conformance.md describes the files.
 """
 
 
-def add_parser(subparsers):
-    """Add ``conformance`` (and its action ``export``) to the ``skf-ref`` subcommands."""
+def add_parser(subparsers: Any) -> None:
+    """Add ``conformance`` (and its action ``export``) to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     parser = subparsers.add_parser(
         "conformance",
         help="conformance cases to check your own SKF against",
@@ -38,7 +48,8 @@ def add_parser(subparsers):
         description="Copy the pinned conformance suite (every case's inputs and expected "
         "outputs, one file per case and format, and manifest.json with their sha256) and "
         "the runners run_cases.m and run_cases.py to DIR. The files are the suite's, byte "
-        "for byte, whatever the version of skf_ref.",
+        "for byte, whatever the version of skf_ref. A runner already in DIR that you "
+        "adapted is kept: the shipped one is written beside it (run_cases_shipped.py).",
         epilog=_EXAMPLES,
     )
     export.add_argument("directory", type=Path, metavar="DIR", help="folder (made if missing)")
@@ -53,11 +64,28 @@ def add_parser(subparsers):
     export.set_defaults(run=run_export)
 
 
-def run_export(args):
-    """Run ``skf-ref conformance export``; returns the files written."""
+def run_export(args: argparse.Namespace) -> list[Path]:
+    """Run ``skf-ref conformance export``: write the suite's cases and runners.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+    """
+    import warnings
+
     from ..conformance import CONFORMANCE_VERSION, export, manifest
 
-    written = export(args.directory, args.format)
+    with warnings.catch_warnings(record=True) as kept:
+        warnings.simplefilter("always", UserWarning)
+        written = export(args.directory, args.format)
+    for warning in kept:  # a runner the user edited: kept, the shipped one beside it
+        print(f"skf-ref: note: {warning.message}", file=sys.stderr)
     if not args.quiet:
         n_cases = sum(path.suffix in (".npz", ".mat") for path in written)
         print(

@@ -1,12 +1,19 @@
 """``skf-ref demo``: parses its options, calls :func:`skf_ref.study.demo.run_demo`, prints."""
 
+from __future__ import annotations
+
+import argparse
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .._utils.checks import InputError
 from ..method import RECOMMENDED_SETTING
 from ..study.sizes import DEFAULT_POSITIONS, SCENARIO_MIN_POSITIONS
-from ._args import add_skf_options, db, integer
+from ._args import Parser, add_skf_options, db, integer
+
+if TYPE_CHECKING:
+    from ..study.demo import Demo
 
 __all__ = ["add_parser", "run"]
 
@@ -20,8 +27,14 @@ _PRINTED = (
 )
 
 
-def add_parser(subparsers):
-    """Add ``demo`` to the ``skf-ref`` subcommands."""
+def add_parser(subparsers: argparse._SubParsersAction[Parser]) -> None:
+    """Add ``demo`` to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     demo = subparsers.add_parser(
         "demo",
         help="the paper's P20/N20 study: the SKF beside sLORETA, the deep source present "
@@ -85,13 +98,26 @@ def add_parser(subparsers):
     demo.set_defaults(run=run)
 
 
-def run(args):
-    """Run ``skf-ref demo``; returns the :class:`skf_ref.study.demo.Demo`."""
+def run(args: argparse.Namespace) -> Demo:
+    """Run ``skf-ref demo``: the demo, its files, and its metrics printed.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    skf_ref.study.demo.Demo
+        What :func:`skf_ref.study.demo.run_demo` computed.
+    """
     from ..study.demo import run_demo
+    from ..study.head import check_montage
 
     if args.head == "sphere" and args.mne_testing_data is not None:
         raise InputError("--mne-testing-data: not used with --head sphere; drop one")
     try:
+        check_montage(args.montage)  # before the first progress line
         demo = run_demo(
             args.out,
             snr_db=args.snr_db,
@@ -122,7 +148,7 @@ def run(args):
     return demo
 
 
-def _db(value):
+def _db(value: float | str | tuple[float, float]) -> str:
     if isinstance(value, tuple):  # a range searched
         return f"searched in {value[0]:g}..{value[1]:g} dB"
     return value if value == "auto" else f"{value:g} dB"
@@ -139,18 +165,18 @@ _FLAGS = {
 }
 
 
-def _as_flag(message):
+def _as_flag(message: str) -> str:
     """The library's error, prefixed with the flag of the parameter it names."""
-    name = re.match(r"[a-z_]*", message).group()
+    name = re.findall(r"^[a-z_]*", message)[0]
     return f"{_FLAGS[name]}: {message}" if name in _FLAGS else message
 
 
-def _row_label(demo, column):
+def _row_label(demo: Demo, column: str) -> str:
     key, data = column.split(", ", 1)
     return f"{demo.methods[key]}, {data}"
 
 
-def _head_line(demo, args):
+def _head_line(demo: Demo, args: argparse.Namespace) -> str:
     if demo.head.conductor_kind == "bem":
         return f"realistic: {demo.head.description}"
     why = (

@@ -1,14 +1,19 @@
 """``skf-ref reconstruct``: your own EEG in, a source estimate (or arrays) out."""
 
+from __future__ import annotations
+
 import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .._utils.checks import InputError
 from ..method import RECOMMENDED_SETTING
 from ._args import add_skf_options, positive, report_tuning
+
+if TYPE_CHECKING:
+    from ..method import Reconstruction
 
 __all__ = ["add_parser", "run"]
 
@@ -34,7 +39,7 @@ package versions.
 _OUTPUTS = (".npz", ".stc", ".h5")
 
 
-def _output(text):
+def _output(text: str) -> Path:
     path = Path(text)
     if path.suffix not in _OUTPUTS:
         raise argparse.ArgumentTypeError(f"must end in .npz, .stc or .h5, got {text!r}")
@@ -42,7 +47,13 @@ def _output(text):
 
 
 def add_parser(subparsers: Any) -> None:
-    """Add ``reconstruct`` to the ``skf-ref`` subcommands."""
+    """Add ``reconstruct`` to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     parser = subparsers.add_parser(
         "reconstruct",
         help="the SKF on your own data: MNE files or arrays in, a source estimate out",
@@ -107,6 +118,11 @@ def add_parser(subparsers: Any) -> None:
     )
     parser.add_argument("--out", type=_output, required=True, metavar="FILE", help="output")
     parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace existing output files (the output, its settings, the figure)",
+    )
+    parser.add_argument(
         "--plot", type=Path, metavar="FILE", help="also draw the estimate (.png, .pdf, .svg ...)"
     )
     parser.add_argument("--quiet", action="store_true", help="no progress messages")
@@ -134,11 +150,37 @@ def _route(args):
     return "mne" if mne_route else "arrays"
 
 
-def _check_outputs(args):
-    """Every file to write can be written: checked before any work."""
-    for flag, path in (("--out", args.out), ("--plot", args.plot)):
-        if path is not None and not path.parent.is_dir():
-            raise InputError(f"argument {flag}: {path}: the folder {path.parent} does not exist")
+def _outputs(args: argparse.Namespace) -> dict[str, list[Path]]:
+    """Every file the command writes, by the flag that names it."""
+    from ..io.files import stc_files
+
+    if args.out.suffix == ".npz":
+        written = [args.out]
+    elif args.out.suffix == ".h5":
+        written = stc_files(args.out, "VolSourceEstimate")
+    elif args.pick_ori == "vector":
+        raise InputError(
+            f"argument --out: {args.out}: MNE writes a vector source estimate (--pick-ori "
+            "vector) to .h5 only: give a name ending in .h5, or .npz"
+        )
+    else:  # which of them depends on the source space: see _check_stc_format
+        written = [*stc_files(args.out, "SourceEstimate")]
+        written += stc_files(args.out, "VolSourceEstimate")
+    outputs = {"--out": written, "--out's settings": [args.out.with_name(args.out.name + ".json")]}
+    if args.plot is not None:
+        outputs["--plot"] = [args.plot]
+    return outputs
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Every file to write can be written, is no input and replaces nothing unless
+    --overwrite: checked before any work."""
+    from .._utils.atomic_files import check_output_path, same_file
+
+    inputs = {
+        flag: getattr(args, flag[2:].replace("-", "_"))
+        for flag in ("--forward", "--evoked", "--leadfield", "--data", "--noise-cov")
+    }
     if args.plot is not None:
         from matplotlib.backend_bases import FigureCanvasBase
 
@@ -148,6 +190,41 @@ def _check_outputs(args):
                 f"argument --plot: {args.plot}: a figure is written to "
                 f"{', '.join('.' + f for f in sorted(formats))}, got {args.plot.suffix!r}"
             )
+    seen: list[tuple[str, Path]] = []
+    for flag, paths in _outputs(args).items():
+        for path in paths:
+            name = "argument --out" if flag == "--out's settings" else f"argument {flag}"
+            check_output_path(
+                path,
+                name=name,
+                inputs=inputs,
+                overwrite=args.overwrite,
+                overwrite_hint="give --overwrite to replace it",
+            )
+            other = next((f for f, p in seen if same_file(p, path)), None)
+            if other is not None:
+                raise InputError(f"{name}: {path} is also written as {other}")
+            seen.append((flag, path))
+    if args.out.suffix == ".stc" and args.forward is not None:
+        _check_stc_format(args)
+
+
+def _check_stc_format(args: argparse.Namespace) -> None:
+    """MNE writes .stc for one surface or one volume only: a mixed source space, or
+    several volumes, go to .h5 (read off the forward's source space, not its gain)."""
+    import mne
+
+    try:
+        src = mne.read_source_spaces(args.forward, verbose=False)
+    except Exception:  # MNE's reader raises several types; the forward is read again later
+        return
+    volumes = len(src) if src.kind in ("volume", "discrete") else 1
+    if src.kind == "mixed" or volumes > 1:
+        what = "a mixed source space" if src.kind == "mixed" else f"{volumes} volumes"
+        raise InputError(
+            f"argument --out: {args.out}: MNE writes the estimate on {what} to .h5 only (.stc "
+            "holds one surface or one volume): give a name ending in .h5, or .npz"
+        )
 
 
 def _settings(args, route, extra):
@@ -326,17 +403,41 @@ def _array_noise(args, recording, Y):
     return {"noise_cov": cov.data[np.ix_(index, index)]}
 
 
-def run(args):
-    """Run ``skf-ref reconstruct``; returns the reconstruction."""
-    import numpy as np
+def run(args: argparse.Namespace) -> Reconstruction:
+    """Run ``skf-ref reconstruct``: read the inputs, reconstruct, write the outputs.
 
-    from .._utils.atomic_files import atomic_path
-    from ..io.files import write_reconstruction, write_stc
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    skf_ref.Reconstruction
+        The reconstruction.
+    """
+    import numpy as np
 
     route = _route(args)
     rec, stc, times, positions = (_mne_route if route == "mne" else _array_route)(args)
     if positions is not None and not isinstance(positions, np.ndarray):
         positions = np.concatenate(positions)
+    written = _write(args, route, rec, stc, times, positions)
+    if not args.quiet:
+        names = ", ".join(str(path) for path in written)
+        print(f"wrote {names}", file=sys.stderr)
+    return rec
+
+
+def _write(
+    args: argparse.Namespace, route: str, rec: Any, stc: Any, times: Any, positions: Any
+) -> list[Path]:
+    """The estimate, its settings beside it and the figure; each file whole or absent."""
+    import numpy as np
+
+    from .._utils.atomic_files import atomic_path
+    from ..io.files import write_reconstruction, write_stc
+
     components = rec.n_sources // len(positions) if positions is not None else 1
     extra = {"log_likelihood": rec.log_likelihood, "theta0": rec.theta0, "q": rec.q}
     extra["channels"] = args.channels
@@ -349,16 +450,12 @@ def run(args):
     if args.plot is not None:
         from ..study.plots import plot_estimate
 
-        with atomic_path(args.plot) as tmp:
-            plot_estimate(
-                rec.amplitude(components if components in (1, 3) else 1),
-                times if times is not None else np.arange(rec.n_times),
-                positions if components in (1, 3) else None,
-                title=f"SKF, exponent {args.exponent:g}, "
-                + ("no smoothing" if args.smoother == "none" else args.smoother),
-                path=tmp,
-            )
-    if not args.quiet:
-        names = ", ".join(str(path) for path in written)
-        print(f"wrote {names}", file=sys.stderr)
-    return rec
+        plot_estimate(  # written whole or not at all (atomic_path)
+            rec.amplitude(components if components in (1, 3) else 1),
+            times if times is not None else np.arange(rec.n_times),
+            positions if components in (1, 3) else None,
+            title=f"SKF, exponent {args.exponent:g}, "
+            + ("no smoothing" if args.smoother == "none" else args.smoother),
+            path=args.plot,
+        )
+    return written

@@ -1,27 +1,42 @@
 """``skf-ref sweep``: a grid of P20/N20 runs, one tidy row each, resumable."""
 
+from __future__ import annotations
+
 import argparse
+import signal
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .._utils.checks import InputError
 from ..study.sizes import DEFAULT_POSITIONS, SCENARIO_MIN_POSITIONS
-from ._args import db, integer, nonnegative
+from ._args import Parser, db, integer, nonnegative
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import pandas as pd
 
 __all__ = ["add_parser", "run"]
 
 _GRID_AXES = ("snr_db", "ep_snr_db", "pm_snr_db", "exponent", "smoother")
 
 
-def _results_file(text):
+def _results_file(text: str) -> Path:
     path = Path(text)
     if path.suffix not in (".csv", ".parquet"):
         raise argparse.ArgumentTypeError(f"must end in .csv or .parquet, got {text!r}")
     return path
 
 
-def add_parser(subparsers):
-    """Add ``sweep`` to the ``skf-ref`` subcommands."""
+def add_parser(subparsers: argparse._SubParsersAction[Parser]) -> None:
+    """Add ``sweep`` to the ``skf-ref`` subcommands.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``skf-ref``'s parser's ``add_subparsers`` returned.
+    """
     from ..study.sweep import paper_grid
 
     paper = paper_grid(seeds=10)
@@ -75,39 +90,87 @@ def add_parser(subparsers):
     sweep.set_defaults(run=run)
 
 
-def run(args):
-    """Run ``skf-ref sweep``; returns the results table."""
+def _ignore_interrupts() -> None:
+    """A worker's initializer: Ctrl-C (sent to every process of the terminal's group) is
+    the parent's to handle; it stops the workers itself, and they print nothing."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _run_sweep(
+    args: argparse.Namespace, grid: dict, run_sweep: Callable, torn_line: type[Warning]
+) -> pd.DataFrame:
+    """run_sweep, its workers deaf to Ctrl-C; on an interruption one line, then exit 130.
+
+    Only the sweep's own notes (a torn last line cut off) are printed, before anything
+    else; joblib's warnings (the tasks it cancelled) are dropped on an interruption and
+    shown on success.
+    """
     import warnings
 
+    import joblib
+
+    interrupted = False
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", torn_line)
+        try:
+            with joblib.parallel_config(backend="loky", initializer=_ignore_interrupts):
+                table = run_sweep(
+                    grid,
+                    args.out,
+                    n_jobs=args.jobs,
+                    n_positions=args.positions,
+                    montage=args.montage,
+                    verbose=not args.quiet,
+                    size_name="--positions",
+                )
+        except KeyboardInterrupt:
+            interrupted = True
+    for warning in caught:
+        if issubclass(warning.category, torn_line):
+            print(f"skf-ref: note: {warning.message}", file=sys.stderr)
+    if interrupted:
+        print(
+            f"skf-ref: interrupted; finished rows are in {args.out}: rerun to resume",
+            file=sys.stderr,
+        )
+        raise SystemExit(130)
+    for warning in caught:
+        if not issubclass(warning.category, torn_line):
+            warnings.warn_explicit(
+                warning.message, warning.category, warning.filename, warning.lineno
+            )
+    return table
+
+
+def run(args: argparse.Namespace) -> pd.DataFrame:
+    """Run ``skf-ref sweep``: the grid's runs not yet in the results file.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Every row of the results file (:func:`skf_ref.study.sweep.run_sweep`).
+    """
+    from .._utils.atomic_files import check_output_path
+    from ..study.head import check_montage
     from ..study.sweep import TornLineWarning, paper_grid, run_sweep
 
     if args.jobs == 0:
         raise InputError("argument --jobs: must be a positive number of workers or -1")
+    check_output_path(args.out, name="argument --out")  # resumed: an existing one is kept
+    try:
+        check_montage(args.montage)
+    except InputError as err:
+        raise InputError(f"argument --montage: {err}") from None
     grid = paper_grid(seeds=args.seeds)
     for axis in _GRID_AXES:
         grid[axis] = getattr(args, axis)
     grid["smoother"] = [None if s == "none" else s for s in args.smoother]
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", TornLineWarning)
-        try:
-            table = run_sweep(
-                grid,
-                args.out,
-                n_jobs=args.jobs,
-                n_positions=args.positions,
-                montage=args.montage,
-                verbose=not args.quiet,
-                size_name="--positions",
-            )
-        except KeyboardInterrupt:
-            print(
-                f"skf-ref: interrupted; finished rows are in {args.out}: rerun to resume",
-                file=sys.stderr,
-            )
-            raise SystemExit(130) from None
-        finally:
-            for warning in caught:
-                print(f"skf-ref: note: {warning.message}", file=sys.stderr)
+    table = _run_sweep(args, grid, run_sweep, TornLineWarning)
     if not args.quiet:
         print(f"{len(table)} rows in {args.out}", file=sys.stderr)
     return table

@@ -1,13 +1,17 @@
 """Case files (``.npz``, MATLAB v5 ``.mat``): written the same bytes every time, read back."""
 
+from __future__ import annotations
+
 import io
+import os
 import zipfile
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
-from .._utils.atomic_files import atomic_path
-from .._utils.checks import InputError, check_array
+from .._utils.atomic_files import atomic_path, check_output_path
+from .._utils.checks import InputError, check_array, check_instance
 from ..method._result import readonly
 from ..method._settings import check_smoother
 from .cases import EXTRAS, INPUTS, OUTPUTS, Case, as_value
@@ -50,7 +54,7 @@ def _write_mat(path, variables):
         tmp.write_bytes(bytes(data))
 
 
-def write_case(case, path):
+def write_case(case: Case, path: str | os.PathLike) -> Path:
     """Write one case to ``.npz`` or MATLAB v5 ``.mat``, the same bytes every time.
 
     Parameters
@@ -63,9 +67,8 @@ def write_case(case, path):
     -------
     Path
     """
-    path = Path(path)
-    if path.suffix not in (".npz", ".mat"):
-        raise InputError(f"a case is written to .npz or .mat, got {str(path)!r}")
+    path = check_output_path(path, suffixes=(".npz", ".mat"))
+    check_instance("case", case, Case, "a conformance Case")
     (_write_npz if path.suffix == ".npz" else _write_mat)(path, case.variables())
     return path
 
@@ -84,7 +87,7 @@ def _scalar_or_square(variables, name, path, n):
     return readonly(check_array(f"{path}: {name}", value, (n, n)))
 
 
-def read_case(path):
+def read_case(path: str | os.PathLike) -> Case:
     """Read a case written by :func:`write_case` (or :func:`export`).
 
     Parameters
@@ -101,7 +104,7 @@ def read_case(path):
     skf_ref.InputError
         If the file is not a conformance case: names the missing variable or the shape.
     """
-    from ..io.files import read_variables
+    from ..io.variables import read_variables
 
     variables = read_variables(path)
     missing = [name for name in (*_ABOUT, *INPUTS, *OUTPUTS) if name not in variables]
@@ -118,7 +121,7 @@ def read_case(path):
         inputs["smoother"] = check_smoother(_text(variables, "smoother", path))
     except InputError as err:
         raise InputError(f"{path}: {err}") from None
-    expected = {
+    expected: dict[str, NDArray[np.float64] | float] = {
         name: readonly(check_array(f"{path}: {name}", variables[name], (n, T)))
         for name in OUTPUTS
         if name != "log_likelihood"

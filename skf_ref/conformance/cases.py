@@ -6,11 +6,14 @@ once (:func:`skf_ref.conformance.suite.build`); the suite users run is the pinne
 :func:`skf_ref.conformance.cases`, and a test fails when :func:`generate` drifts from it.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from ..method import priors_from_snr, reconstruct
+from ..method import Reconstruction, priors_from_snr, reconstruct
 from ..method._outputs import OUTPUTS
 from ..method._result import readonly
 from ..version import __version__
@@ -95,11 +98,11 @@ class Case:
     skf_ref_version: str = __version__
 
     @property
-    def shape(self):
+    def shape(self) -> tuple[int, int]:
         """tuple : (n_sources, n_times) of every array output."""
         return (self.inputs["L"].shape[1], self.inputs["Y"].shape[1])
 
-    def reconstruct(self, method="dense", **changes):
+    def reconstruct(self, method: str = "dense", **changes: Any) -> Reconstruction:
         """Run :func:`skf_ref.reconstruct` on the inputs with one of its paths.
 
         Parameters
@@ -128,7 +131,7 @@ class Case:
             method=method,
         )
 
-    def variables(self):
+    def variables(self) -> dict[str, Any]:
         """Everything the case's file holds, by name; ``smoother`` None as ``"none"``.
 
         Returns
@@ -149,7 +152,7 @@ class Case:
 
 # --- the cases -------------------------------------------------------------------------------
 
-_SPECS = []
+_SPECS: list[tuple] = []
 
 
 def _case(name, seed, description, *exercises):
@@ -356,7 +359,7 @@ def _exercises(inputs, own):
     return tuple(tags)
 
 
-def as_value(value):
+def as_value(value: Any) -> float | np.ndarray:
     """``value`` as a float if it is a scalar, else as a read-only float array (a copy)."""
     return float(value) if np.ndim(value) == 0 else readonly(np.array(value, dtype=float))
 
@@ -378,7 +381,7 @@ def _build(name, seed, description, own, builder):
     return case
 
 
-def generate():
+def generate() -> list[Case]:
     """Every case computed afresh by the installed package: the dense path's outputs.
 
     This is how a suite version is made; the suite itself is the pinned copy,

@@ -19,15 +19,20 @@ When an output disagrees:
   their numbers than the expected outputs are.
 """
 
+from __future__ import annotations
+
+import os
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
-from .._utils.checks import InputError, check_real
+from .._utils.checks import InputError, check_path, check_real
 from .case_files import read_case
 from .cases import OUTPUTS, Case
 from .mistakes import SUSPECTS
-from .precision import precision
+from .precision import Precision, precision
+from .suite import check_pinned
 from .their_outputs import checked, read_outputs
 
 __all__ = ["Comparison", "compare", "read_outputs"]
@@ -93,7 +98,9 @@ def _diagnose(case, given, tolerance):
     return found
 
 
-def compare(case, theirs, *, tolerance=None):
+def compare(
+    case: Case | str | os.PathLike, theirs: Any, *, tolerance: float | None = None
+) -> Comparison:
     """Compare another implementation's outputs with a conformance case.
 
     Parameters
@@ -115,8 +122,10 @@ def compare(case, theirs, *, tolerance=None):
     Raises
     ------
     skf_ref.InputError
-        If their outputs are unusable: none of the output names, or a wrong shape (the
-        message names the output and the shape expected).
+        If their outputs are unusable: none of the output names, a wrong shape (the
+        message names the output and the shape expected), complex numbers; or if the case
+        file says it is one of the pinned suite's and is not its bytes (its sha256 is not the
+        manifest's).
 
     Examples
     --------
@@ -129,7 +138,10 @@ def compare(case, theirs, *, tolerance=None):
     >>> result.agrees, result.diagnosis
     (False, ['exponent_on_square_root'])
     """
-    case = case if isinstance(case, Case) else read_case(case)
+    if not isinstance(case, Case):
+        path = check_path("case", case)
+        case = read_case(path)
+        check_pinned(path, case)
     if tolerance is None:
         tolerance = case.tolerance
     tolerance = check_real("tolerance", tolerance, positive=True)
@@ -150,10 +162,9 @@ def compare(case, theirs, *, tolerance=None):
     if not result.agrees:
         # how far the expected outputs are from theirs, a transposed output counting as far
         result.difference = max(_distance(given[k], case.expected[k]) for k in given)
-        result.precision = precision(
-            given, max(row["largest_difference"] for row in rows), tolerance
-        )
-        result.suspects = _diagnose(case, given, result.precision.tolerance)
+        supported = precision(given, max(row["largest_difference"] for row in rows), tolerance)
+        result.precision = supported
+        result.suspects = _diagnose(case, given, supported.tolerance)
     return result
 
 
@@ -186,28 +197,37 @@ class Comparison:
         comparison's).
     """
 
-    def __init__(self, case, source, tolerance, rows, suspects, ignored):
+    def __init__(
+        self,
+        case: str,
+        source: str,
+        tolerance: float,
+        rows: list[dict],
+        suspects: list[dict],
+        ignored: list[str],
+    ) -> None:
         self.case, self.source, self.tolerance = case, source, tolerance
         self.rows, self.suspects, self.ignored = rows, suspects, ignored
-        self.difference, self.precision = None, None
+        self.difference: float | None = None
+        self.precision: Precision | None = None
 
     @property
-    def agrees(self):
+    def agrees(self) -> bool:
         """bool : Whether every output given agrees."""
         return all(row["verdict"] == "agrees" for row in self.rows)
 
     @property
-    def exit_status(self):
+    def exit_status(self) -> int:
         """int : 0 when everything given agrees, 1 otherwise (``skf-ref compare``)."""
         return 0 if self.agrees else 1
 
     @property
-    def diagnosis(self):
+    def diagnosis(self) -> list[str]:
         """list of str : The known mistakes that reproduce their numbers."""
         return [suspect["name"] for suspect in self.suspects if suspect["matches"]]
 
     @property
-    def closest(self):
+    def closest(self) -> str | None:
         """str or None : The suspect nearest their numbers, if nearer than the expected outputs."""
         nearest = min(self.suspects, key=lambda suspect: suspect["distance"], default=None)
         if nearest is None or not nearest["distance"] < self.difference:
@@ -215,11 +235,11 @@ class Comparison:
         return nearest["name"]
 
     @property
-    def hint(self):
+    def hint(self) -> str | None:
         """str or None : What the precision of their numbers says, when something disagrees."""
         return None if self.precision is None else self.precision.hint
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """dict : Everything, as plain Python values (for JSON)."""
         keys = ("case", "source", "tolerance", "rows", "suspects", "ignored", "difference")
         return {key: getattr(self, key) for key in keys} | {
@@ -230,20 +250,20 @@ class Comparison:
             "hint": self.hint,
         }
 
-    def to_frame(self):
+    def to_frame(self) -> Any:
         """pandas.DataFrame : One row per output given, indexed by the output's name."""
         import pandas as pd
 
         return pd.DataFrame(self.rows).set_index("output")
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         verdict = "agrees" if self.agrees else "disagrees"
         return f"<Comparison | case {self.case}, {len(self.rows)} outputs, {verdict}>"
 
-    def __str__(self):
+    def __str__(self) -> str:
         return self.report()
 
-    def report(self):
+    def report(self) -> str:
         """The comparison as text: a table of the outputs, a verdict and the likely cause.
 
         Returns

@@ -10,7 +10,11 @@ them all). A suspect returns the outputs a :class:`~skf_ref.Reconstruction` has 
 lead field before its reference).
 """
 
+from __future__ import annotations
+
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -19,6 +23,9 @@ from ..method._outputs import ARRAYS
 from ..method._paths import dense
 from ..method._priors import CONVENTIONS
 from ..method._standardization import inverse_sqrt, raw_weights, standardize
+
+if TYPE_CHECKING:
+    from .cases import Case
 
 __all__ = ["SUSPECTS", "Suspect"]
 
@@ -38,7 +45,7 @@ class Suspect:
 
     name: str
     description: str
-    compute: object
+    compute: Callable[[Case], dict[str, Any] | None]
 
 
 def _model(case, **changes):
@@ -113,14 +120,14 @@ def _toolbox_weights(f, R, L):
     return w
 
 
-def transposed(case):
+def transposed(case: Case) -> dict[str, Any] | None:
     """The outputs as (n_times, n_sources): time-major, as filters compute them inside."""
     return {
         name: np.transpose(value) for name, value in case.expected.items() if name in ARRAYS
     } | {"log_likelihood": case.expected["log_likelihood"]}
 
 
-def posterior_in_weights(case):
+def posterior_in_weights(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (7) with ``P_{t|t}`` for ``P_{t|t-1}``: the weights from the updated covariance."""
     f, model = _filtered(case)
     w, _ = _posterior_weights(f)
@@ -128,7 +135,7 @@ def posterior_in_weights(case):
     return _outputs(f, model, case)
 
 
-def posterior_in_whitening(case):
+def posterior_in_whitening(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (6) with ``P_{t|t}^{-1/2} x_{t|t}``: whitened by the updated covariance."""
     f, model = _filtered(case)
     _, whitening = _posterior_weights(f)
@@ -136,7 +143,7 @@ def posterior_in_whitening(case):
     return _outputs(f, model, case)
 
 
-def posterior_in_both(case):
+def posterior_in_both(case: Case) -> dict[str, Any] | None:
     """§2.2 eqs. (6) and (7) with ``P_{t|t}`` for ``P_{t|t-1}`` in weights and whitening."""
     f, model = _filtered(case)
     w, whitening = _posterior_weights(f)
@@ -144,7 +151,7 @@ def posterior_in_both(case):
     return _outputs(f, model, case)
 
 
-def posterior_weights_toolbox_form(case):
+def posterior_weights_toolbox_form(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (7) as ``diag(B' (B B' + R)^-1 B)``, ``B = L P_{t|t}^{1/2}``: the toolbox's form
     with the updated covariance.
 
@@ -157,7 +164,7 @@ def posterior_weights_toolbox_form(case):
     return _outputs(f, model, case)
 
 
-def standardized_after_update(case):
+def standardized_after_update(case: Case) -> dict[str, Any] | None:
     """§2.2 eqs. (6)-(7) computed after the update, from ``P_{t|t}`` as if it were
     ``P_{t|t-1}``.
 
@@ -172,24 +179,24 @@ def standardized_after_update(case):
     return _outputs(f, model, case)
 
 
-def exponent_on_square_root(case):
+def exponent_on_square_root(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (7) as ``(w_t ** 1/2) ** -alpha``: the exponent on the square root of ``w_t``."""
     f, model = _filtered(case)
     f = _restandardized(f, np.sqrt(f["w"]), f["P_pred_inv_sqrt"])
     return _outputs(f, model, case)
 
 
-def exponent_fixed_at_half(case):
+def exponent_fixed_at_half(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (7) as ``w_t ** -0.5`` whatever the exponent: the original SKF's, hard-wired."""
     return None if case.inputs["exponent"] == 0.5 else _rerun(case, exponent=0.5)
 
 
-def exponent_dropped(case):
+def exponent_dropped(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (7) as ``1 / w_t``: the exponent left out (as if it were 1)."""
     return None if case.inputs["exponent"] == 1 else _rerun(case, exponent=1.0)
 
 
-def other_smoother(case):
+def other_smoother(case: Case) -> dict[str, Any] | None:
     """§2.3 eq. (4) over the state ``x`` instead of ``z``, or over ``z`` instead of ``x``."""
     smoother = case.inputs["smoother"]
     if smoother is None:
@@ -199,7 +206,7 @@ def other_smoother(case):
     return _outputs(f, model, case, swapped)
 
 
-def other_convention(case):
+def other_convention(case: Case) -> dict[str, Any] | None:
     """The priors of §3.1 eqs. (8)-(10) with the other amplitude (docs/model.md §4)."""
     convention = case.extras.get("convention")
     if convention is None:
@@ -212,7 +219,7 @@ def other_convention(case):
     return _rerun(case, theta0=theta0, q=q)
 
 
-def noise_std_as_variance(case):
+def noise_std_as_variance(case: Case) -> dict[str, Any] | None:
     """``R = sigma I`` instead of ``sigma**2 I``: the noise standard deviation where the
     variance belongs.
 
@@ -223,7 +230,7 @@ def noise_std_as_variance(case):
     return None if np.ndim(c) or c == 1 else _rerun(case, noise_cov=np.sqrt(c))
 
 
-def noise_variance_as_std(case):
+def noise_variance_as_std(case: Case) -> dict[str, Any] | None:
     """``R = c**2 I`` from a scalar ``noise_cov = c``: the variance taken for a standard deviation.
 
     What ``reconstruct(..., noise_std=noise_cov)`` computes: a case's scalar ``noise_cov``
@@ -233,7 +240,7 @@ def noise_variance_as_std(case):
     return None if np.ndim(c) or c == 1 else _rerun(case, noise_cov=c**2)
 
 
-def transition_ignored(case):
+def transition_ignored(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (4) with ``A = I`` whatever the transition (the toolbox: any diagonal ``A``)."""
     A = case.inputs["transition"]
     if np.array_equal(A, np.eye(case.shape[0]) if np.ndim(A) else 1.0):
@@ -241,12 +248,14 @@ def transition_ignored(case):
     return _rerun(case, transition=1.0)
 
 
-def no_first_prediction(case):
+def no_first_prediction(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (4) skipped at ``t = 1``: update, then predict, so ``P_{1|0} = P_0``."""
     model, Y = _model(case)
     L, R, A, Q, P0 = _matrices(model)
     T, n = Y.shape[1], L.shape[1]
-    f = {key: np.empty((T, n)) for key in ("x_filt", "x_pred", "z", "w", "weights")}
+    f: dict[str, Any] = {
+        key: np.empty((T, n)) for key in ("x_filt", "x_pred", "z", "w", "weights")
+    }
     for key in ("P_filt", "P_pred", "P_pred_inv_sqrt"):
         f[key] = np.empty((T, n, n))
     f["log_likelihood"], f["exponent"] = 0.0, case.inputs["exponent"]
@@ -265,14 +274,14 @@ def no_first_prediction(case):
     return _outputs(f, model, case)
 
 
-def extra_first_prediction(case):
+def extra_first_prediction(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (4) applied twice before ``t = 1``: ``P_{1|0} = A (A P_0 A^T + Q) A^T + Q``."""
     model, _ = _model(case)
     _, _, A, Q, P0 = _matrices(model)
     return _rerun(case, theta0=A @ P0 @ A.T + Q)
 
 
-def missing_average_reference(case):
+def missing_average_reference(case: Case) -> dict[str, Any] | None:
     """``L`` without the average reference of the data (docs/model.md §1, "Reference")."""
     L = case.extras.get("L_unreferenced")
     return None if L is None else _rerun(case, L=L)
@@ -280,7 +289,7 @@ def missing_average_reference(case):
 
 #: Every known mistake, in the order the report lists them.
 SUSPECTS = tuple(
-    Suspect(function.__name__, function.__doc__, function)
+    Suspect(function.__name__, function.__doc__ or "", function)
     for function in (
         transposed,
         posterior_in_weights,

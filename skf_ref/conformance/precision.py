@@ -13,7 +13,10 @@ Three things are recognized, from the numbers alone:
 numbers support, at which :func:`skf_ref.compare` then looks for known mistakes.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -77,7 +80,7 @@ def _digits(values):
     return None
 
 
-def precision(given, difference, tolerance):
+def precision(given: dict[str, Any], difference: float, tolerance: float) -> Precision:
     """What their numbers' precision says about a difference over the tolerance.
 
     Parameters
@@ -106,6 +109,7 @@ def precision(given, difference, tolerance):
     most 3.0e-06) are the rounding of printing 6 digits: they agree to the precision given.
     Print 17 significant digits (%.17g) to compare at 1e-6, or use --tolerance 1e-5.
     """
+    hint: str | None
     values = _values(given)
     digits = _digits(values)
     if digits is not None and digits >= _FEWEST_DIGITS:

@@ -13,14 +13,20 @@ on every case and save its outputs for ``skf-ref compare``; :func:`export` copie
 beside the cases.
 """
 
+from __future__ import annotations
+
 import hashlib
 import json
+import os
 import shutil
+import warnings
+from collections.abc import Sequence
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 from .._utils.atomic_files import atomic_path
-from .._utils.checks import InputError, check_choice
+from .._utils.checks import InputError, check_choice, check_path
 from ..version import __version__
 from .case_files import FORMATS, read_case, write_case
 from .cases import (
@@ -29,10 +35,21 @@ from .cases import (
     INPUTS,
     OUTPUTS,
     TOLERANCE,
+    Case,
     generate,
 )
 
-__all__ = ["RUNNERS", "SUITE", "build", "cases", "export", "manifest", "sha256", "verify"]
+__all__ = [
+    "RUNNERS",
+    "SUITE",
+    "build",
+    "cases",
+    "check_pinned",
+    "export",
+    "manifest",
+    "sha256",
+    "verify",
+]
 
 #: The folder of the pinned suite, inside the installed package.
 SUITE = Path(__file__).resolve().with_name(f"suite_v{CONFORMANCE_VERSION}")
@@ -42,7 +59,7 @@ RUNNERS = tuple(
 )
 
 
-def sha256(path):
+def sha256(path: str | os.PathLike) -> str:
     """The sha256 of a file, as hexadecimal text.
 
     Parameters
@@ -61,7 +78,7 @@ def _pinned_manifest():
     return json.loads((SUITE / "manifest.json").read_text(encoding="utf-8"))
 
 
-def manifest():
+def manifest() -> dict[str, Any]:
     """The suite's ``manifest.json``: versions, tolerances, layout, and each case's files.
 
     Returns
@@ -89,7 +106,7 @@ def _pinned_cases():
     )
 
 
-def cases():
+def cases() -> list[Case]:
     """The suite's cases, read from its pinned files (once per process).
 
     Returns
@@ -106,7 +123,7 @@ def cases():
     return list(_pinned_cases())
 
 
-def verify(directory=SUITE):
+def verify(directory: str | os.PathLike = SUITE) -> list[str]:
     """The files of ``directory`` whose sha256 differs from the manifest's, or that are missing.
 
     Parameters
@@ -117,31 +134,108 @@ def verify(directory=SUITE):
     Returns
     -------
     list of str
-        The names of the case files present in ``directory`` but changed, then those of
-        the formats present that are missing. Empty when every file is the suite's.
+        The names of the case files present in ``directory`` but changed, then
+        ``manifest.json`` if changed, then the case files of the formats present that are
+        missing. Empty when every file is the suite's.
+
+    Raises
+    ------
+    skf_ref.InputError
+        ``directory`` does not exist, is a file, or holds no file of the suite (nothing
+        to verify is not "every file is the suite's").
 
     Examples
     --------
     >>> verify()
     []
     """
-    directory = Path(directory)
-    files = {
-        name: digest for e in _pinned_manifest()["cases"] for name, digest in e["files"].items()
-    }
+    directory = check_path("directory", directory)
+    if not directory.is_dir():
+        what = "is a file, not a folder" if directory.exists() else "does not exist"
+        raise InputError(f"{directory} {what}: give the folder skf-ref conformance export wrote")
+    files = _pinned_files()
     present = {Path(name).suffix for name in files if (directory / name).is_file()}
+    if not present:
+        raise InputError(
+            f"{directory} holds no file of the conformance suite (version "
+            f"{CONFORMANCE_VERSION}), such as {next(iter(files))}: export it there first "
+            "(skf-ref conformance export DIR)"
+        )
     changed = [
         n for n, d in files.items() if (directory / n).is_file() and sha256(directory / n) != d
     ]
+    manifest_file = directory / "manifest.json"
+    if manifest_file.is_file() and sha256(manifest_file) != sha256(SUITE / "manifest.json"):
+        changed.append("manifest.json")
     missing = [n for n in files if Path(n).suffix in present and not (directory / n).is_file()]
     return changed + missing
 
 
-def export(directory, formats=FORMATS):
+def _pinned_files() -> dict[str, str]:
+    """Every case file of the suite: ``{file name: sha256}``."""
+    return {
+        name: digest for e in _pinned_manifest()["cases"] for name, digest in e["files"].items()
+    }
+
+
+def check_pinned(path: str | os.PathLike, case: Case) -> None:
+    """Refuse a case file that says it is one of the pinned suite's but is not its bytes.
+
+    A file whose ``case`` and ``conformance_version`` name a case of this suite must have
+    the sha256 the manifest pins for that case in its format: a copy whose expected outputs
+    were changed (same name, same version) is no conformance case.
+
+    Parameters
+    ----------
+    path : path-like
+        The case file.
+    case : Case
+        What it holds (:func:`~skf_ref.conformance.read_case`).
+
+    Raises
+    ------
+    skf_ref.InputError
+        The file claims a pinned case and its sha256 is not the pinned one.
+    """
+    if case.conformance_version != CONFORMANCE_VERSION:
+        return  # another version of the suite: not pinned in this package
+    path = Path(path)
+    pinned = _pinned_files().get(f"{case.name}{path.suffix}")
+    if pinned is not None and sha256(path) != pinned:
+        raise InputError(
+            f"{path} says it is case {case.name!r} of conformance suite version "
+            f"{CONFORMANCE_VERSION}, but it is not the suite's file (its sha256 differs from "
+            "the pinned one): it was changed. Export the suite again (skf-ref conformance "
+            "export DIR) and compare with its file"
+        )
+
+
+def _runner_destinations(directory: Path) -> list[tuple[Path, Path]]:
+    """Where each runner goes: its own name, or beside a copy the user edited."""
+    plan = []
+    for runner in RUNNERS:
+        shipped = sha256(runner)
+        destination = directory / runner.name
+        if destination.is_dir() or destination.is_file() and sha256(destination) != shipped:
+            beside = directory / f"{runner.stem}_shipped{runner.suffix}"
+            if beside.exists() and (not beside.is_file() or sha256(beside) != shipped):
+                raise InputError(
+                    f"{destination} and {beside} both differ from the {runner.name} of this "
+                    "skf_ref (edited?): neither is replaced; move one of them away"
+                )
+            destination = beside
+        plan.append((runner, destination))
+    return plan
+
+
+def export(directory: str | os.PathLike, formats: Sequence[str] = FORMATS) -> list[Path]:
     """Copy the suite's files in ``formats``, its manifest and the runners to ``directory``.
 
     The case files and ``manifest.json`` are the pinned ones, byte for byte: the manifest
-    lists every file of the suite (both formats) with its sha256.
+    lists every file of the suite (both formats) with its sha256. A runner already in
+    ``directory`` that differs from the one this package ships (one the user adapted, as
+    its docstring invites) is never replaced: the shipped one is written beside it as
+    ``run_cases_shipped.py`` (or ``.m``), with a warning.
 
     Parameters
     ----------
@@ -154,6 +248,12 @@ def export(directory, formats=FORMATS):
     list of Path
         The case files copied, then the runners, then ``manifest.json``.
 
+    Raises
+    ------
+    skf_ref.InputError
+        ``directory`` is a file; an unknown format; a runner and its ``_shipped`` copy
+        both edited (nothing is written).
+
     Examples
     --------
     >>> import tempfile
@@ -162,16 +262,26 @@ def export(directory, formats=FORMATS):
     (['original_skf.mat', 'free_orientation.mat'], 'manifest.json')
     """
     formats = _checked_formats(formats)
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
+    directory = check_path("directory", directory)
+    if directory.exists() and not directory.is_dir():
+        raise InputError(f"{directory} is a file: give a folder (made if missing)")
     names = [f"{e['name']}.{fmt}" for e in _pinned_manifest()["cases"] for fmt in formats]
-    sources = [*(SUITE / name for name in names), *RUNNERS, SUITE / "manifest.json"]
-    written = []
-    for source in sources:
-        with atomic_path(directory / source.name) as tmp:
+    runners = _runner_destinations(directory)
+    plan = [(SUITE / name, directory / name) for name in names]
+    plan += [*runners, (SUITE / "manifest.json", directory / "manifest.json")]
+    directory.mkdir(parents=True, exist_ok=True)
+    for source, destination in plan:
+        with atomic_path(destination) as tmp:
             shutil.copyfile(source, tmp)
-        written.append(directory / source.name)
-    return written
+    for runner, destination in runners:
+        if destination.name != runner.name:
+            warnings.warn(
+                f"{directory / runner.name} differs from the runner this skf_ref ships (your "
+                f"version?): kept as it is; the shipped one is {destination}",
+                UserWarning,
+                stacklevel=2,
+            )
+    return [destination for _, destination in plan]
 
 
 def _checked_formats(formats):
@@ -183,7 +293,7 @@ def _checked_formats(formats):
     return formats
 
 
-def build(directory, formats=FORMATS):
+def build(directory: str | os.PathLike, formats: Sequence[str] = FORMATS) -> list[Path]:
     """Compute every case afresh and write a suite: how a new suite version is made.
 
     Writes :func:`~skf_ref.conformance.cases.generate`'s cases in each format and their
@@ -204,7 +314,7 @@ def build(directory, formats=FORMATS):
         The files written, the manifest last.
     """
     formats = _checked_formats(formats)
-    directory = Path(directory)
+    directory = check_path("directory", directory)
     directory.mkdir(parents=True, exist_ok=True)
     fresh = generate()
     written = [

@@ -15,9 +15,12 @@ Every (source, step) of an output it holds must appear exactly once. A UTF-8 byt
 mark at the start of the file is allowed.
 """
 
+from __future__ import annotations
+
 import csv
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -42,7 +45,7 @@ def _read_csv(path):
     if not lines or [cell.strip().lower() for cell in lines[0]] != _CSV_HEADER:
         got = ",".join(lines[0]) if lines else "an empty file"
         raise InputError(f"{path}: the first line must be output,source,step,value, got {got}")
-    cells = {}
+    cells: dict[str, dict[tuple, float]] = {}
     for number, line in enumerate(lines[1:], start=2):
         if not any(cell.strip() for cell in line):
             continue
@@ -80,7 +83,7 @@ def _assemble(path, name, entries):
     return array
 
 
-def read_outputs(theirs):
+def read_outputs(theirs: Any) -> tuple[dict[str, Any], str]:
     """Everything ``theirs`` holds, by name, and how to name it in messages.
 
     Parameters
@@ -92,6 +95,8 @@ def read_outputs(theirs):
     Returns
     -------
     variables : dict
+        Every name ``theirs`` holds; from a ``.npz`` or ``.mat`` file, only the outputs'
+        values are read (the other names map to None).
     source : str
     """
     if isinstance(theirs, Mapping):
@@ -102,7 +107,7 @@ def read_outputs(theirs):
         raise InputError(
             f"theirs must be a file, a mapping or a Reconstruction, got {describe(theirs)}"
         )
-    from ..io.files import read_variables
+    from ..io.variables import read_variables
 
     path = Path(theirs)
     if path.suffix == ".csv":
@@ -111,11 +116,11 @@ def read_outputs(theirs):
         return _read_csv(path), str(path)
     if path.suffix not in (".npz", ".mat"):
         raise InputError(f"{path}: give their outputs as .npz, .mat or .csv")
-    variables = read_variables(path)
-    return {k: v for k, v in variables.items() if not k.startswith("__")}, str(path)
+    variables = read_variables(path)  # lazy: only the outputs are read, the rest named
+    return {k: variables[k] if k in OUTPUTS else None for k in variables}, str(path)
 
 
-def checked(name, value, shape, source):
+def checked(name: str, value: Any, shape: tuple[int, int], source: str) -> float | np.ndarray:
     """``value`` as a float, or an array of ``shape`` or its transpose; else an error.
 
     Parameters
@@ -136,12 +141,25 @@ def checked(name, value, shape, source):
     Raises
     ------
     skf_ref.InputError
-        Not numbers, or another shape: names the output and the shape expected.
+        Not numbers (text, complex numbers with an imaginary part), or another shape:
+        names the output and the shape expected.
     """
     try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{source}: {name} must be numbers, got {describe(value)}") from None
+        array = np.asarray(value)
+    except (TypeError, ValueError):  # ragged nested sequences
+        array = np.asarray(None)
+    if array.dtype.kind == "c":
+        imaginary = float(np.max(np.abs(array.imag), initial=0.0))
+        if imaginary > 0:
+            raise InputError(
+                f"{source}: {name} is complex (largest imaginary part {imaginary:.3g}, largest "
+                f"real part {float(np.max(np.abs(array.real), initial=0.0)):.3g}): an SKF's "
+                "outputs are real; give them as real numbers"
+            )
+        array = array.real
+    if array.dtype.kind not in "fiu":
+        raise InputError(f"{source}: {name} must be numbers, got {describe(value)}")
+    array = array.astype(float)
     if name == "log_likelihood":
         if array.size != 1:
             raise InputError(f"{source}: log_likelihood must be one number, got {array.shape}")

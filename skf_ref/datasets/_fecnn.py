@@ -37,7 +37,7 @@ found or downloaded by :func:`skf_ref.datasets.data_path`:
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -94,7 +94,7 @@ def read_elc(path: str | os.PathLike) -> tuple[list[str], np.ndarray]:
     return labels, positions
 
 
-def _nave(cfg) -> int:
+def _nave(cfg: Any) -> int:
     """Trials averaged: those defined (``trl``) less those ``ft_rejectvisual`` rejected."""
     defined, rejected = None, 0
     while isinstance(cfg, dict):

@@ -13,7 +13,8 @@
   read back as a source estimate over a span of time (:func:`read_skf_stream`);
 - :mod:`.stc`: a reconstruction as an MNE source estimate;
 - :mod:`.files`: lead fields and data from ``.npy``, ``.npz``, ``.mat``, ``.csv`` and MNE's
-  ``.fif``; reconstructions written to ``.npz``, ``.mat``, ``.stc``/``.h5``;
+  ``.fif``; reconstructions written to ``.npz``, ``.stc``/``.h5``; :mod:`.variables`: the
+  variables of ``.npz`` and ``.mat`` files, read when used; :mod:`.tables`: CSV layouts;
 - :mod:`.zarr_dask`: outputs larger than memory, streamed to zarr or computed on Dask.
 
 MNE-Python, zarr and Dask are optional (the extras ``mne``, ``zarr``, ``dask``): they load
@@ -28,7 +29,7 @@ _HOMES = {
     "Recording": "files",
     "read_data": "files",
     "read_leadfield": "files",
-    "read_variables": "files",
+    "read_variables": "variables",
     "write_reconstruction": "files",
     "write_stc": "files",
     "SKFOperator": "operator",

@@ -2,22 +2,26 @@
 
 Readers return the arrays with what the format knows about them (channel names, source
 positions, times) and, for MNE files, the MNE object; a file that cannot be used raises an
-:class:`~skf_ref.InputError` naming the file and what is wrong. Writers go through a
-temporary file and a rename, so a result is whole or absent.
+:class:`~skf_ref.InputError` naming the file and what is wrong; channel names are one per
+row, none twice. Writers check their path first and go through a temporary file and a
+rename, so a result is whole or absent.
 
 =============  =========================================================================
 format         read as
 =============  =========================================================================
 ``.npy``       the array
 ``.npz``       the array under ``key`` (or the only one, or a conventional name);
-               ``ch_names``, ``positions`` and ``times`` when present
+               ``ch_names``, ``positions`` and ``times`` when present; nothing else is
+               read (:mod:`skf_ref.io.variables`)
 ``.mat``       MATLAB v5 (``scipy.io.loadmat``) and v7.3 (HDF5, ``pymatreader``), the
-               variable ``key`` (or the only one, or a conventional name)
+               variable ``key`` (or the only one, or a conventional name); a matrix keeps
+               both dimensions (32 x 1 stays 32 x 1)
 ``.csv``       data only: channels in rows, times in columns; optionally channel names
-               in the first column and times in seconds in the first row (as
-               ``DataFrame(Y, index=names, columns=times).to_csv()`` writes it), or
-               numbers only (``np.savetxt``); the layout is read off the content and a
-               file that fits none is refused (:mod:`skf_ref.io.tables`)
+               (or row labels) in the first column and times in seconds in the first row
+               (as ``DataFrame(Y, index=names, columns=times).to_csv()`` writes it), or
+               numbers only (``np.savetxt``), cut by commas, semicolons, tabs or spaces;
+               the layout is read off the content, on evidence, and what could be read
+               two ways is refused saying how to tell (:mod:`skf_ref.io.tables`)
 ``-fwd.fif``   lead field: ``mne.read_forward_solution`` (free orientation in MNE's x, y,
                z head coordinates); channel names and source positions kept
 ``-ave.fif``   data: ``mne.read_evokeds`` (``condition``: name or index)
@@ -27,26 +31,36 @@ other          data: anything ``mne.io.read_raw`` reads (EDF, BDF, BrainVision, 
 =============  =========================================================================
 """
 
-import contextlib
+from __future__ import annotations
+
 import os
-import tempfile
-import warnings
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from .._utils.atomic_files import atomic_path
-from .._utils.checks import InputError, check_array
+from .._utils.atomic_files import atomic_path, check_output_path, temporary_folder
+from .._utils.checks import (
+    InputError,
+    InputTypeError,
+    check_array,
+    check_names,
+    check_path,
+    describe,
+)
 from .._utils.extras import optional
 from .tables import read_csv
+from .variables import Variables, existing_file, read_npy, read_variables, reading
 
 __all__ = [
     "LeadField",
     "Recording",
     "read_data",
     "read_leadfield",
-    "read_variables",
+    "stc_files",
     "write_reconstruction",
     "write_stc",
 ]
@@ -71,9 +85,9 @@ class LeadField:
     """
 
     data: np.ndarray
-    ch_names: list | None = None
+    ch_names: list[str] | None = None
     positions: np.ndarray | None = None
-    forward: object = None
+    forward: Any = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,96 +105,54 @@ class Recording:
     """
 
     data: np.ndarray
-    ch_names: list | None = None
+    ch_names: list[str] | None = None
     times: np.ndarray | None = None
-    evoked: object = None
+    evoked: Any = None
 
 
-def _existing(path):
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such file")
-    return path
+def _pick(variables: Variables, key: str | None, conventional: Sequence[str], path: Path) -> Any:
+    """The array under ``key``, the only numeric array, or the first conventional name.
 
-
-@contextlib.contextmanager
-def _reading(path, what):
-    """Turn a reader's own exceptions into one InputError naming the file.
-
-    MNE's advice on file names (``-ave.fif`` and the like) is not shown: the readers here
-    take any name and say what they read the file as.
+    Only the array picked is read (:func:`~skf_ref.io.variables.read_variables` is lazy).
     """
-    try:
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", "This filename .* does not conform to MNE")
-            yield
-    except InputError:
-        raise
-    except Exception as err:  # each reader (numpy, scipy, h5py, pandas, MNE) has its own
-        raise InputError(f"{path}: cannot be read as {what}: {err}") from err
-
-
-def _pick(variables, key, conventional, path):
-    """The array under ``key``, the only array, or the first conventional name."""
-    arrays = {k: v for k, v in variables.items() if not k.startswith("__")}
     if key is not None:
-        if key not in arrays:
-            raise InputError(f"{path}: no variable {key!r}; it holds {sorted(arrays)}")
-        return arrays[key]
-    numeric = [k for k, v in arrays.items() if np.asarray(v).dtype.kind in "fiu"]
+        if key not in variables:
+            raise InputError(f"{path}: no variable {key!r}; it holds {sorted(variables)}")
+        return variables[key]
+    numeric = [name for name in variables if variables.kind(name) in "fiu"]
     if len(numeric) == 1:
-        return arrays[numeric[0]]
+        return variables[numeric[0]]
     for name in conventional:
-        if name in arrays:
-            return arrays[name]
+        if name in variables:
+            return variables[name]
     raise InputError(
-        f"{path} holds {sorted(arrays)}: say which is meant (key=..., or --key on the command "
-        f"line); looked for {list(conventional)}"
+        f"{path} holds {sorted(variables)}: say which is meant (key=..., or --key on the "
+        f"command line); looked for {list(conventional)}"
     )
 
 
-def read_variables(path):
-    """Every variable of a ``.npz`` or ``.mat`` (v5 or v7.3) file, by name.
-
-    MATLAB's 1 x 1 and 1 x n arrays come back squeezed (a number, a vector), text as
-    ``str``; NumPy's arrays as they were saved.
-
-    Parameters
-    ----------
-    path : path-like
-        Ends in ``.npz`` or ``.mat``.
-
-    Returns
-    -------
-    dict
-        ``{name: value}``; MATLAB's own header entries (``__header__`` ...) included.
-    """
-    path = _existing(path)
-    if path.suffix not in (".npz", ".mat"):
-        raise InputError(f"{path}: expected a .npz or .mat file, got {path.suffix!r}")
-    if path.suffix == ".npz":
-        with _reading(path, "a NumPy .npz archive"), np.load(path, allow_pickle=False) as npz:
-            return {k: npz[k] for k in npz.files}
-    from scipy.io import loadmat
-
-    try:
-        with _reading(path, "a MATLAB v5 file"):
-            return loadmat(path, squeeze_me=True)
-    except InputError as err:
-        if "v7.3" not in str(err) and "HDF" not in str(err):
-            raise
-    from pymatreader import read_mat
-
-    with _reading(path, "a MATLAB v7.3 (HDF5) file"):
-        return read_mat(str(path))
+def _matrix(value: Any, path: Path) -> Any:
+    """A MATLAB number where a matrix is wanted is the 1 x 1 matrix it was."""
+    return np.reshape(value, (1, 1)) if path.suffix == ".mat" and np.ndim(value) == 0 else value
 
 
-def _names(variables, key):
-    value = variables.get(key)
-    return None if value is None else [str(name) for name in np.atleast_1d(value)]
+def _vector(value: Any) -> np.ndarray:
+    """A MATLAB row or column (1 x n, n x 1) as the vector it is."""
+    value = np.asarray(value)
+    return value.ravel() if value.ndim == 2 and 1 in value.shape else value
 
 
-def read_leadfield(path, *, key=None):
+def _names(variables: Mapping[str, Any], key: str, path: Path, n: int) -> list[str] | None:
+    """The channel names stored under ``key``: one per row, none twice."""
+    if key not in variables:
+        return None
+    names = check_names(f"{path}: {key}", np.atleast_1d(_vector(variables[key])))
+    if len(names) != n:
+        raise InputError(f"{path}: {len(names)} names in {key} for {n} rows")
+    return names
+
+
+def read_leadfield(path: str | os.PathLike, *, key: str | None = None) -> LeadField:
     """Read a lead field (n_channels, n_sources).
 
     Parameters
@@ -193,32 +165,37 @@ def read_leadfield(path, *, key=None):
     Returns
     -------
     LeadField
+
+    Raises
+    ------
+    skf_ref.InputError
+        The file is missing, not of its format, holds no lead field, names a channel
+        twice, or holds pickled objects.
     """
-    path = _existing(path)
+    path = existing_file(path)
     name = path.name.lower()
     if name.endswith(".fif") or name.endswith(".fif.gz"):
         return _forward(path)
     if path.suffix == ".npy":
-        with _reading(path, "a NumPy array"):
-            data = np.load(path, allow_pickle=False)
-        return LeadField(check_array(f"{path}", data, ("n_channels", "n_sources")))
+        return LeadField(check_array(f"{path}", read_npy(path), ("n_channels", "n_sources")))
     if path.suffix not in (".npz", ".mat"):
         raise InputError(
             f"{path}: unknown lead-field format {path.suffix!r}; give .npy, .npz, .mat or an "
             "MNE -fwd.fif"
         )
     variables = read_variables(path)
-    data = check_array(f"{path}", _pick(variables, key, _LEADFIELD_KEYS, path), (None, None))
+    data = _matrix(_pick(variables, key, _LEADFIELD_KEYS, path), path)
+    data = check_array(f"{path}", data, (None, None))
     positions = variables.get("positions")
     if positions is not None:
         positions = check_array(f"{path} positions", positions, ("n_positions", 3))
-    return LeadField(data, _names(variables, "ch_names"), positions)
+    return LeadField(data, _names(variables, "ch_names", path, data.shape[0]), positions)
 
 
-def _forward(path):
+def _forward(path: Path) -> LeadField:
     mne = optional("mne", "mne", "reading an MNE forward (-fwd.fif)")
 
-    with _reading(path, "an MNE forward solution"):
+    with reading(path, "an MNE forward solution"):
         forward = mne.read_forward_solution(path, verbose=False)
     if not mne.forward.is_fixed_orient(forward):
         forward = mne.convert_forward_solution(
@@ -233,7 +210,13 @@ def _forward(path):
     )
 
 
-def read_data(path, *, key=None, condition=None):
+def read_data(
+    path: str | os.PathLike,
+    *,
+    key: str | None = None,
+    condition: str | int | None = None,
+    sfreq: float | None = None,
+) -> Recording:
     """Read EEG data (n_channels, n_times).
 
     Parameters
@@ -245,28 +228,35 @@ def read_data(path, *, key=None, condition=None):
         The variable holding the data in ``.npz`` and ``.mat`` files.
     condition : str or int, optional
         The evoked of an ``-ave.fif`` file that holds several: its comment or its index.
+    sfreq : float, optional
+        ``.csv`` only: the sampling frequency (Hz). A first row that steps by ``1 / sfreq``
+        is the times, any other first row is data (:mod:`skf_ref.io.tables`).
 
     Returns
     -------
     Recording
+
+    Raises
+    ------
+    skf_ref.InputError
+        The file is missing, not of its format, holds no data or a layout that cannot
+        be told (CSV: the message says how to say it), names a channel twice, or holds
+        pickled objects.
     """
-    path = _existing(path)
+    path = existing_file(path)
     name = path.name.lower()
     if path.suffix == ".npy":
-        with _reading(path, "a NumPy array"):
-            data = np.load(path, allow_pickle=False)
-        return Recording(check_array(f"{path}", data, ("n_channels", "n_times")))
+        return Recording(check_array(f"{path}", read_npy(path), ("n_channels", "n_times")))
     if path.suffix in (".npz", ".mat"):
         variables = read_variables(path)
-        data = check_array(f"{path}", _pick(variables, key, _DATA_KEYS, path), (None, None))
+        data = _matrix(_pick(variables, key, _DATA_KEYS, path), path)
+        data = check_array(f"{path}", data, (None, None))
         times = variables.get("times")
-        return Recording(
-            data,
-            _names(variables, "ch_names"),
-            None if times is None else check_array(f"{path} times", times, (data.shape[1],)),
-        )
+        if times is not None:
+            times = check_array(f"{path} times", _vector(times), (data.shape[1],))
+        return Recording(data, _names(variables, "ch_names", path, data.shape[0]), times)
     if path.suffix == ".csv":
-        data, names, times = read_csv(path)
+        data, names, times = read_csv(path, sfreq=sfreq)
         return Recording(data, names, times)
     if any(name.endswith(suffix) for suffix in _MNE_DATA):
         evoked = _mne_evoked(path, name, condition)
@@ -277,24 +267,24 @@ def read_data(path, *, key=None, condition=None):
     )
 
 
-def _mne_evoked(path, name, condition):
+def _mne_evoked(path: Path, name: str, condition: str | int | None) -> Any:
     mne = optional("mne", "mne", "reading an MNE evoked (-ave.fif)")
 
     if name.endswith(("-ave.fif", "_ave.fif", "-ave.fif.gz")):
-        with _reading(path, "MNE evoked data"):
+        with reading(path, "MNE evoked data"):
             evokeds = mne.read_evokeds(path, proj=False, verbose=False)
         return _condition(evokeds, condition, path)
     if name.endswith(("-epo.fif", "_epo.fif", "-epo.fif.gz")):
-        with _reading(path, "MNE epochs"):
+        with reading(path, "MNE epochs"):
             return mne.read_epochs(path, proj=False, verbose=False).average()
-    with _reading(path, "a recording MNE reads"):
+    with reading(path, "a recording MNE reads"):
         raw = mne.io.read_raw(path, preload=True, verbose=False)
     return mne.EvokedArray(
         raw.get_data(), raw.info, tmin=raw.times[0], nave=1, comment=path.name, verbose=False
     )
 
 
-def _condition(evokeds, condition, path):
+def _condition(evokeds: list, condition: str | int | None, path: Path) -> Any:
     names = [evoked.comment for evoked in evokeds]
     if condition is None:
         if len(evokeds) > 1:
@@ -307,8 +297,18 @@ def _condition(evokeds, condition, path):
     raise InputError(f"{path}: no condition {condition!r}; it holds {names}")
 
 
-def write_reconstruction(path, reconstruction, *, times=None, positions=None, extra=None):
+def write_reconstruction(
+    path: str | os.PathLike,
+    reconstruction: Any,
+    *,
+    times: ArrayLike | None = None,
+    positions: ArrayLike | None = None,
+    extra: Mapping[str, Any] | None = None,
+) -> Path:
     """Write a reconstruction, its settings and the package versions to a ``.npz`` file.
+
+    The file appears whole or not at all (written under a temporary name, then renamed);
+    an existing file is replaced (through a symbolic link, the file it points to).
 
     Parameters
     ----------
@@ -324,13 +324,26 @@ def write_reconstruction(path, reconstruction, *, times=None, positions=None, ex
     Returns
     -------
     Path
+
+    Raises
+    ------
+    skf_ref.InputTypeError
+        ``path`` is no file name, or ``reconstruction`` no Reconstruction (the arguments
+        swapped?).
+    skf_ref.InputError
+        ``path`` does not end in ``.npz``, is a folder, or its folder does not exist.
     """
     from .._utils.provenance import package_versions
+    from ..method import Reconstruction
 
-    path = Path(path)
-    if path.suffix != ".npz":
-        raise InputError(f"a reconstruction is written to .npz, got {str(path)!r}")
-    arrays = {name: getattr(reconstruction, name) for name in ("z", "x", "weights")}
+    path = check_output_path(path, suffixes=(".npz",))
+    if not isinstance(reconstruction, Reconstruction):
+        raise InputTypeError(
+            f"reconstruction must be an skf_ref.Reconstruction, got {describe(reconstruction)}"
+        )
+    arrays: dict[str, Any] = {
+        name: getattr(reconstruction, name) for name in ("z", "x", "weights")
+    }
     if times is not None:
         arrays["times"] = np.asarray(times, dtype=float)
     if positions is not None:
@@ -341,14 +354,74 @@ def write_reconstruction(path, reconstruction, *, times=None, positions=None, ex
             arrays["amplitude"] = reconstruction.amplitude(components)
     settings = {**reconstruction.settings, **(extra or {})}
     settings |= {f"{k}_version": v for k, v in package_versions().items()}
-    scalars = {k: np.asarray("none" if v is None else v) for k, v in settings.items()}
+    scalars: dict[str, Any] = {
+        k: np.asarray("none" if v is None else v) for k, v in settings.items()
+    }
     scalars["log_likelihood"] = np.asarray(reconstruction.log_likelihood)
     with atomic_path(path) as tmp:
         np.savez_compressed(tmp, **arrays, **scalars)
     return path
 
 
-def write_stc(path, stc):
+#: MNE's source-estimate classes whose .stc writer exists (a single volume, or a surface).
+_STC_WRITERS = ("SourceEstimate", "VolSourceEstimate")
+_STC_CLASSES = (
+    *_STC_WRITERS,
+    "MixedSourceEstimate",
+    "VectorSourceEstimate",
+    "VolVectorSourceEstimate",
+    "MixedVectorSourceEstimate",
+)
+
+
+def _stc_stem(path: Path) -> str:
+    """``NAME`` of ``NAME.stc``, ``NAME-vl.stc``, ``NAME-stc.h5`` ... (MNE adds the tags)."""
+    if path.suffix not in (".h5", ".stc"):
+        raise InputError(f"a source estimate is written to .stc or .h5, got {str(path)!r}")
+    stem = path.name[: -len(path.suffix)]
+    for tag in ("-vl", "-lh", "-rh", "-stc"):
+        stem = stem.removesuffix(tag)
+    return stem
+
+
+def stc_files(path: str | os.PathLike, class_name: str, n_volumes: int = 1) -> list[Path]:
+    """The files :func:`write_stc` writes for ``path``, or why it cannot.
+
+    Parameters
+    ----------
+    path : path-like
+        ``.stc`` or ``.h5``.
+    class_name : str
+        The MNE source estimate's class (``"VolSourceEstimate"`` ...).
+    n_volumes : int
+        Volume source spaces of a ``VolSourceEstimate`` (MNE's ``.stc`` holds one).
+
+    Returns
+    -------
+    list of Path
+        ``NAME-stc.h5``; ``NAME-lh.stc`` and ``NAME-rh.stc``; or ``NAME-vl.stc``.
+
+    Raises
+    ------
+    skf_ref.InputError
+        ``path`` is neither, or the estimate cannot be written as ``.stc`` (a vector or
+        mixed estimate, several volumes: MNE writes them to ``.h5`` only).
+    """
+    path = check_path("path", path)
+    stem = _stc_stem(path)
+    if path.suffix == ".h5":
+        return [path.with_name(f"{stem}-stc.h5")]
+    if class_name not in _STC_WRITERS or n_volumes > 1:
+        what = "several volumes" if class_name in _STC_WRITERS else f"a {class_name}"
+        raise InputError(
+            f"{path}: MNE writes {what} to .h5 only (an .stc file holds one value per position "
+            "of one source space): give a name ending in .h5"
+        )
+    tags = ("-lh", "-rh") if class_name == "SourceEstimate" else ("-vl",)
+    return [path.with_name(f"{stem}{tag}.stc") for tag in tags]
+
+
+def write_stc(path: str | os.PathLike, stc: Any) -> list[Path]:
     """Write an MNE source estimate with MNE's writer, every file whole or absent.
 
     Parameters
@@ -356,26 +429,38 @@ def write_stc(path, stc):
     path : path-like
         ``.h5`` or ``.stc``, named as MNE names them: ``NAME-stc.h5``; ``NAME-lh.stc`` and
         ``NAME-rh.stc`` for a surface estimate, ``NAME-vl.stc`` for a volume one (a given
-        ``NAME.stc`` or ``NAME.h5`` becomes these).
+        ``NAME.stc`` or ``NAME.h5`` becomes these). A vector or mixed estimate is written
+        to ``.h5`` only.
+    stc : mne.SourceEstimate or mne.VolSourceEstimate or mne.MixedSourceEstimate or vector kin
 
     Returns
     -------
     list of Path
         The files written.
+
+    Raises
+    ------
+    skf_ref.InputTypeError
+        ``path`` is no file name, or ``stc`` no MNE source estimate (the arguments
+        swapped?).
+    skf_ref.InputError
+        The format cannot hold the estimate (a vector or mixed estimate, several volumes,
+        to ``.stc``), or a file's folder is missing or the file a folder.
     """
-    path = Path(path)
-    ftype = {".h5": "h5", ".stc": "stc"}.get(path.suffix)
-    if ftype is None:
-        raise InputError(f"a source estimate is written to .stc or .h5, got {str(path)!r}")
-    stem = path.name[: -len(path.suffix)]
-    for tag in ("-vl", "-lh", "-rh", "-stc"):
-        stem = stem.removesuffix(tag)
-    written = []
-    with tempfile.TemporaryDirectory(dir=path.parent, prefix=".skf-stc-") as tmp:
-        with _reading(path, "an MNE source estimate (writing)"):
-            stc.save(Path(tmp) / stem, ftype=ftype, overwrite=True, verbose=False)
-        for produced in sorted(Path(tmp).iterdir()):
-            final = path.parent / produced.name
-            os.replace(produced, final)
-            written.append(final)
-    return written
+    path = check_path("path", path)
+    mne = optional("mne", "mne", "write_stc")
+    if type(stc).__name__ not in _STC_CLASSES or not isinstance(
+        stc, getattr(mne, type(stc).__name__)
+    ):
+        raise InputTypeError(f"stc must be an MNE source estimate, got {describe(stc)}")
+    volumes = len(stc.vertices) if type(stc).__name__ == "VolSourceEstimate" else 1
+    finals = [check_output_path(f) for f in stc_files(path, type(stc).__name__, volumes)]
+    with temporary_folder(finals[0]) as tmp:
+        try:
+            stc.save(tmp / _stc_stem(path), path.suffix[1:], overwrite=True, verbose=False)
+        except (ValueError, RuntimeError, OSError) as err:  # MNE's writers' own errors
+            raise InputError(f"{path}: MNE cannot write this source estimate: {err}") from err
+        for final in finals:
+            with atomic_path(final) as target:
+                os.replace(tmp / final.name, target)
+    return finals

@@ -174,7 +174,7 @@ def read_skf_operator(fname: str | Path) -> SKFOperator:
     Parameters
     ----------
     fname : path-like
-        An ``.h5`` file of format version :data:`OPERATOR_FORMAT_VERSION` or earlier.
+        An ``.h5`` file of format version ``OPERATOR_FORMAT_VERSION`` or earlier.
 
     Returns
     -------

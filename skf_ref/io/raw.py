@@ -8,10 +8,20 @@ it fits, or streamed to a zarr store one block of rows at a time
 (:func:`skf_ref.io.zarr_dask.stc_to_zarr`) when it does not.
 """
 
+import os
+from typing import Any
+
 import numpy as np
 
 from .._utils import memory
-from .._utils.checks import InputError, InputTypeError, check_instance, check_int, describe
+from .._utils.checks import (
+    InputError,
+    InputTypeError,
+    check_instance,
+    check_int,
+    check_memory_limit,
+    describe,
+)
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
 from .operator import SKFOperator
@@ -20,21 +30,21 @@ __all__ = ["apply_skf_raw"]
 
 
 def apply_skf_raw(
-    raw,
-    operator,
-    start=0,
-    stop=None,
+    raw: Any,
+    operator: SKFOperator,
+    start: int = 0,
+    stop: int | None = None,
     *,
-    exponent=0.5,
-    smoother=None,
-    pick_ori=None,
-    out=None,
-    overwrite=False,
-    memory_limit=None,
-    return_reconstruction=False,
-    reject_by_annotation=True,
-    verbose=None,
-):
+    exponent: float = 0.5,
+    smoother: str | None = None,
+    pick_ori: str | None = None,
+    out: str | os.PathLike[str] | None = None,
+    overwrite: bool = False,
+    memory_limit: float | None = None,
+    return_reconstruction: bool = False,
+    reject_by_annotation: bool = True,
+    verbose: bool | str | int | None = None,
+) -> Any:
     """The SKF along a continuous recording, as MNE's ``apply_inverse_raw``.
 
     The samples from ``start`` to ``stop`` are one sequence: the filter (and smoother) runs
@@ -87,6 +97,7 @@ def apply_skf_raw(
         raise InputTypeError(f"raw must be an mne.io.Raw, got {describe(raw)}")
     check_instance("operator", operator, SKFOperator, "an SKFOperator (make_skf_operator)")
     operator.check_pick_ori(pick_ori)
+    memory_limit = check_memory_limit(memory_limit)
     check_instance("reject_by_annotation", reject_by_annotation, bool, "True or False")
     start = check_int("start", start, minimum=0, maximum=raw.n_times - 1)
     stop = raw.n_times if stop is None else check_int("stop", stop, maximum=raw.n_times)

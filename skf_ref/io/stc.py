@@ -65,7 +65,7 @@ def make_stc(
     pick_ori : {None, "vector"}
         See the module docstring.
     layout : StcLayout, optional
-        :func:`stc_layout`'s answer for ``src`` and ``pick_ori``, when many estimates
+        ``stc_layout``'s answer for ``src`` and ``pick_ori``, when many estimates
         share it (a prepared operator keeps it).
 
     Returns

@@ -7,27 +7,41 @@ paths, held in memory already, are cut into the same blocks. zarr and Dask are o
 install "skf_ref[zarr]"`` or ``"skf_ref[dask]"``.
 """
 
+from __future__ import annotations
+
 import collections
 import collections.abc
 import contextlib
+import os
 import secrets
 import shutil
 import tempfile
+from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from .._utils.atomic_files import stale_temporaries, temporary_prefix
-from .._utils.checks import InputError, InputTypeError, check_choice, check_int, describe
+from .._utils.atomic_files import rename_noreplace, stale_temporaries, temporary_prefix
+from .._utils.checks import (
+    InputError,
+    InputTypeError,
+    check_choice,
+    check_instance,
+    check_int,
+    check_path,
+    describe,
+)
 from .._utils.extras import optional
-from ..method import amplitude_from_components
+from ..method import Reconstruction, amplitude_from_components
 from ..method._outputs import ARRAYS as NAMES
 from .stc import stc_layout
 
 __all__ = [
     "BLOCK_BYTES",
     "STORE_MARK",
+    "STORE_SUFFIX",
     "TIME_CHUNK_BYTES",
     "WRITE_BEHIND_BYTES",
     "check_new_store",
@@ -49,6 +63,15 @@ TIME_CHUNK_BYTES = 2**20
 #: The attribute that marks a store as written by this package: ``"writing"`` until every
 #: array is whole, then ``"complete"``. Only a store so marked is ever replaced.
 STORE_MARK = "skf_ref_store"
+#: The extension of a store's name: the extension decides the format.
+STORE_SUFFIX = ".zarr"
+_STORE_ID = "skf_ref_store_id"  # each store's own: overwrite replaces only the store checked
+
+
+def _check_reconstruction(reconstruction: Any, path: Any) -> None:
+    """The arguments of a writer, each of its kind (swapped ones named as such)."""
+    check_path("path", path)
+    check_instance("reconstruction", reconstruction, Reconstruction, "an skf_ref.Reconstruction")
 
 
 def _rows_per_block(reconstruction, chunks, multiple=1):
@@ -77,63 +100,136 @@ def _check_names(arrays):
     return names
 
 
-def _mark(path):
-    """The :data:`STORE_MARK` of the zarr store at ``path``, or None if it has none."""
+def _mark(path: Path) -> tuple[str | None, str | None]:
+    """The :data:`STORE_MARK` and the id of the zarr store at ``path`` (None if none)."""
     zarr = optional("zarr", "zarr", "to_zarr")
     try:
-        return zarr.open_group(path, mode="r").attrs.get(STORE_MARK)
+        attrs = zarr.open_group(path, mode="r").attrs
     except Exception:  # not a zarr group (a folder of the user's, a file): zarr's own errors
-        return None
+        return None, None
+    return attrs.get(STORE_MARK), attrs.get(_STORE_ID)
 
 
-def _clean_up(path):
+def _clean_up(path: Path) -> None:
     """Finish or remove what a killed writer of ``path`` left: a complete new store goes in
     place when ``path`` is missing, else an old one comes back; the rest is deleted."""
     for kind in ("tmp", "old"):
         for leftover in stale_temporaries(path, kind):
-            mark = _mark(leftover)
-            if mark is None and any(leftover.iterdir()):
+            mark, _ = _mark(leftover)
+            if leftover.is_symlink() or not leftover.is_dir():
                 continue  # not ours after all: never delete it
-            if mark == "complete" and not path.exists():
-                leftover.rename(path)
-            else:
-                shutil.rmtree(leftover, ignore_errors=True)
+            if mark is None and any(leftover.iterdir()):
+                continue
+            if mark == "complete":
+                with contextlib.suppress(FileExistsError):
+                    rename_noreplace(leftover, path)
+                    continue
+            shutil.rmtree(leftover, ignore_errors=True)
 
 
-def check_new_store(path, overwrite=False):
+def check_new_store(
+    path: str | os.PathLike, overwrite: bool = False, name: str = "path"
+) -> str | None:
     """Refuse, before any work, a store that :func:`new_store` could not write at ``path``.
 
     Also finishes or removes what a killed writer of ``path`` left.
-    """
-    optional("zarr", "zarr", "writing a zarr store")
-    path = Path(path)
-    if not path.parent.is_dir():
-        raise InputError(f"{path}: the folder {path.parent} does not exist")
-    _clean_up(path)
-    if not (path.exists() or path.is_symlink()):
-        return
-    if not overwrite:
-        raise InputError(f"{path} exists: give overwrite=True to replace it")
-    if path.is_symlink() or not path.is_dir() or _mark(path) != "complete":
-        raise InputError(
-            f"{path} exists and is not a store written by skf_ref: it is never replaced; "
-            "remove it yourself or choose another path"
-        )
-
-
-@contextlib.contextmanager
-def new_store(path, overwrite=False, attributes=None):
-    """A zarr group written under a hidden temporary name, renamed to ``path`` when whole.
-
-    The store is marked (:data:`STORE_MARK`) as this package's, so that ``overwrite`` may
-    replace it later; nothing else is ever deleted. If the block raises, the temporary
-    goes; if the process is killed, the next call for the same ``path`` finishes or removes
-    what it left.
 
     Parameters
     ----------
     path : path-like
-        The store to create.
+        The store to create: a name ending in ``.zarr`` (the extension decides the format).
+    overwrite : bool
+        Whether a store this package wrote at ``path`` may be replaced.
+    name : str
+        The parameter, for messages (``"out"``).
+
+    Returns
+    -------
+    str or None
+        The id of the store that ``overwrite`` would replace; None if ``path`` is free.
+
+    Raises
+    ------
+    skf_ref.InputError
+        Another extension, a missing folder, an existing ``path`` without ``overwrite``, or
+        anything at ``path`` that is not a complete store this package wrote.
+    """
+    optional("zarr", "zarr", "writing a zarr store")
+    path = check_path(name, path)
+    if path.suffix != STORE_SUFFIX:
+        raise InputError(
+            f"{path}: a zarr store (a folder) is written to a name ending in .zarr, got "
+            f"{path.suffix or 'no extension'!r}: the extension decides the format"
+        )
+    if not path.parent.is_dir():
+        raise InputError(f"{path}: the folder {path.parent} does not exist")
+    _clean_up(path)
+    if not (path.exists() or path.is_symlink()):
+        return None
+    if not overwrite:
+        raise InputError(f"{path} exists: give overwrite=True to replace it")
+    mark, identity = _mark(path)
+    if path.is_symlink() or not path.is_dir() or mark != "complete":
+        raise InputError(
+            f"{path} exists and is not a store written by skf_ref: it is never replaced; "
+            "remove it yourself or choose another path"
+        )
+    return identity or ""
+
+
+def _publish(tmp: Path, path: Path, replaced: str | None) -> None:
+    """Rename the whole store ``tmp`` to ``path``, replacing only the store ``replaced``.
+
+    Renames never replace (:func:`~skf_ref._utils.atomic_files.rename_noreplace`): what
+    appeared at ``path`` while ``tmp`` was written (a folder of the user's, the store of
+    another process) stays, and this store is refused; a store to replace is first set
+    aside, and put back unless it is the very store checked before the work.
+    """
+    old = None
+    if replaced is not None:
+        old = path.with_name(temporary_prefix(path, "old") + secrets.token_hex(4))
+        try:
+            rename_noreplace(path, old)
+        except FileNotFoundError:  # removed meanwhile: nothing to replace
+            old = None
+        if old is not None and (old.is_symlink() or _mark(old) != ("complete", replaced or None)):
+            with contextlib.suppress(FileExistsError):
+                rename_noreplace(old, path)
+                old = None
+            raise InputError(
+                f"{path} changed while this store was written (another process?): it is left "
+                "as it is" + (f" (set aside as {old})" if old else "") + "; this store is not "
+                "kept: write it again, or to another path"
+            )
+    try:
+        rename_noreplace(tmp, path)
+    except FileExistsError:
+        raise InputError(
+            f"{path} appeared while this store was written (another process?): it is left as "
+            "it is and this store is not kept: write it again, or to another path"
+        ) from None
+    finally:
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def new_store(
+    path: str | os.PathLike, overwrite: bool = False, attributes: dict | None = None
+) -> Iterator[Any]:
+    """A zarr group written under a hidden temporary name, renamed to ``path`` when whole.
+
+    The store is marked (:data:`STORE_MARK`, with an id of its own) as this package's, so
+    that ``overwrite`` may replace it later; nothing else is ever deleted. The rename
+    never replaces anything: of two processes writing the same ``path``, one wins and the
+    other gets an error (what appeared at ``path`` meanwhile stays as it is). If the block
+    raises, the temporary goes; if the process is killed, the next call for the same
+    ``path`` finishes or removes what it left.
+
+    Parameters
+    ----------
+    path : path-like
+        The store to create, ending in ``.zarr``.
     overwrite : bool
         Replace a store this package wrote at ``path``.
     attributes : dict, optional
@@ -145,30 +241,31 @@ def new_store(path, overwrite=False, attributes=None):
         Open for writing.
     """
     zarr = optional("zarr", "zarr", "to_zarr")
-    path = Path(path)
-    check_new_store(path, overwrite)
+    path = check_path("path", path)
+    replaced = check_new_store(path, overwrite)
     try:
         tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=temporary_prefix(path)))
     except OSError as err:
         raise InputError(f"{path}: cannot write in {path.parent}: {err.strerror}") from err
     try:
         group = zarr.open_group(tmp, mode="w")
-        group.attrs.update({**(attributes or {}), STORE_MARK: "writing"})
+        identity = secrets.token_hex(8)
+        group.attrs.update({**(attributes or {}), STORE_MARK: "writing", _STORE_ID: identity})
         yield group
         group.attrs[STORE_MARK] = "complete"
-        old = None
-        if path.exists():  # ours (checked): set aside, the new one in place, then deleted
-            old = path.with_name(temporary_prefix(path, "old") + secrets.token_hex(4))
-            path.rename(old)
-        tmp.rename(path)
-        if old is not None:
-            shutil.rmtree(old)
+        _publish(tmp, path, replaced)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
 
 
-def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
+def to_zarr(
+    reconstruction: Reconstruction,
+    path: str | os.PathLike,
+    arrays: Sequence[str] = ("z",),
+    chunks: int | None = None,
+    overwrite: bool = False,
+) -> Any:
     """Write outputs to a zarr store (a folder), one block of rows at a time.
 
     No output is held whole: memory is the r x T quantities, the block being computed and
@@ -196,6 +293,7 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
         The store, opened for reading; its attributes hold the reconstruction's settings.
     """
     zarr = optional("zarr", "zarr", "to_zarr")
+    _check_reconstruction(reconstruction, path)
     names = _check_names(arrays)
     step = _rows_per_block(reconstruction, chunks)
     shape = (reconstruction.n_sources, reconstruction.n_times)
@@ -210,7 +308,15 @@ def to_zarr(reconstruction, path, arrays=("z",), chunks=None, overwrite=False):
     return zarr.open_group(path, mode="r")
 
 
-def stc_to_zarr(reconstruction, src, path, tmin, tstep, pick_ori=None, overwrite=False):
+def stc_to_zarr(
+    reconstruction: Reconstruction,
+    src: Any,
+    path: str | os.PathLike,
+    tmin: float,
+    tstep: float,
+    pick_ori: str | None = None,
+    overwrite: bool = False,
+) -> Any:
     """Write what :func:`skf_ref.io.stc.make_stc` would hold to a zarr store, row block by
     row block: an estimate of any length, without ever holding it whole.
 
@@ -231,11 +337,12 @@ def stc_to_zarr(reconstruction, src, path, tmin, tstep, pick_ori=None, overwrite
     zarr.Group
         Open for reading: the array ``"data"`` (n_positions, n_times), or (n_positions,
         3, n_times) for ``"vector"``, one shard per block of rows in chunks of about
-        :data:`TIME_CHUNK_BYTES` along time; attributes ``vertices`` (one list per source
-        space), ``tmin``, ``tstep``, ``subject``, ``stc_class`` (MNE's class) and the
-        settings. :func:`skf_ref.read_skf_stream` reads it back as a source estimate.
+        ``TIME_CHUNK_BYTES`` (1 MiB) along time; attributes ``vertices`` (one list per
+        source space), ``tmin``, ``tstep``, ``subject``, ``stc_class`` (MNE's class) and
+        the settings. :func:`skf_ref.read_skf_stream` reads it back as a source estimate.
     """
     zarr = optional("zarr", "zarr", "stc_to_zarr")
+    _check_reconstruction(reconstruction, path)
     layout = stc_layout(reconstruction.n_sources, src, pick_ori)
     k = layout.components
     n_positions, T = reconstruction.n_sources // k, reconstruction.n_times
@@ -279,7 +386,8 @@ def _write_behind(blocks, write, limit=WRITE_BEHIND_BYTES):
     """``write(rows, block)`` for each of ``blocks`` on a writer thread, so that the disk
     writes while the next blocks are computed; at most ``limit`` bytes wait to be written.
     Returns when every block is written; an interruption cancels the writes not started."""
-    pending, waiting = collections.deque(), 0
+    pending: collections.deque = collections.deque()
+    waiting = 0
     with ThreadPoolExecutor(1) as writer:
         try:
             for rows, block in blocks:
@@ -296,7 +404,7 @@ def _write_behind(blocks, write, limit=WRITE_BEHIND_BYTES):
             writer.shutdown(cancel_futures=True)
 
 
-def to_dask(reconstruction, name="z", chunks=None):
+def to_dask(reconstruction: Reconstruction, name: str = "z", chunks: int | None = None) -> Any:
     """Output ``name`` as a Dask array of row blocks that a cluster computes.
 
     The r x T quantities (and ``V``) are one Dask task, so a distributed cluster moves

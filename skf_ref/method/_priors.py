@@ -192,7 +192,7 @@ def priors_from_snr(
     (1.0, 100.0)
     """
     noise_std = check_real("noise_std", noise_std, positive=True)
-    if "auto" in (pm_snr_db, ep_snr_db):
+    if any(isinstance(value, str) and value.strip() == "auto" for value in (pm_snr_db, ep_snr_db)):
         raise InputError(
             "priors_from_snr takes SNRs in dB; priors chosen by the data ('auto') are "
             "skf_ref.tune's: tune(L, Y, noise_std=...) gives theta0 and q"

@@ -330,11 +330,30 @@ class Reconstruction:
             self._arrays[name] = readonly(self._checked(name, self._lazy.array(name)))
         return self._arrays[name]
 
-    z = property(lambda self: self._array("z"), doc="Standardized (smoothed) estimate.")
-    x = property(lambda self: self._array("x"), doc="Unstandardized (smoothed) means.")
-    z_filtered = property(lambda self: self._array("z_filtered"), doc="Filtered z_{t|t}.")
-    x_filtered = property(lambda self: self._array("x_filtered"), doc="Filtered x_{t|t}.")
-    weights = property(lambda self: self._array("weights"), doc="Diagonal of W_t^(alpha).")
+    @property
+    def z(self) -> NDArray[np.float64]:
+        """ndarray, shape (n_sources, n_times) : Standardized (smoothed) estimate."""
+        return self._array("z")
+
+    @property
+    def x(self) -> NDArray[np.float64]:
+        """ndarray, shape (n_sources, n_times) : Unstandardized (smoothed) means."""
+        return self._array("x")
+
+    @property
+    def z_filtered(self) -> NDArray[np.float64]:
+        """ndarray, shape (n_sources, n_times) : Filtered ``z_{t|t}``."""
+        return self._array("z_filtered")
+
+    @property
+    def x_filtered(self) -> NDArray[np.float64]:
+        """ndarray, shape (n_sources, n_times) : Filtered ``x_{t|t}``."""
+        return self._array("x_filtered")
+
+    @property
+    def weights(self) -> NDArray[np.float64]:
+        """ndarray, shape (n_sources, n_times) : Diagonal of ``W_t^(alpha)``."""
+        return self._array("weights")
 
     @property
     def shape(self) -> tuple[int, int]:

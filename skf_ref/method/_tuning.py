@@ -439,8 +439,8 @@ def choose_priors(
     *,
     noise_std: float | None = None,
     noise_cov: ArrayLike | None = None,
-    pm_snr_db: float | str,
-    ep_snr_db: float | str,
+    pm_snr_db: float | str | tuple[float, float],
+    ep_snr_db: float | str | tuple[float, float],
     convention: str = "gain",
     criterion: str = "likelihood",
 ) -> tuple[float, float, TuneResult | None]:

@@ -16,7 +16,17 @@ scored by the same metrics (:func:`skf_ref.study.metrics.summarize`).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    import mne
+    from mne.minimum_norm import InverseOperator
+
+    from .head import HeadModel
+    from .scenario import Simulation
 
 __all__ = [
     "MINIMUM_NORM_METHODS",
@@ -30,12 +40,13 @@ __all__ = [
 MINIMUM_NORM_METHODS = ("MNE", "dSPM", "sLORETA", "eLORETA")
 
 
-def mne_data(head, sim):
+def mne_data(head: HeadModel, sim: Simulation) -> tuple[mne.EvokedArray, mne.Covariance]:
     """The simulation as MNE objects: the evoked and its noise covariance.
 
     Parameters
     ----------
     head : HeadModel
+        The head the data were simulated on (its ``info``).
     sim : Simulation
         Data of ``head`` (:func:`skf_ref.study.scenario.simulate`).
 
@@ -58,18 +69,20 @@ def mne_data(head, sim):
     return evoked, cov
 
 
-def inverse_operator(head, sim):
+def inverse_operator(head: HeadModel, sim: Simulation) -> InverseOperator:
     """MNE's inverse operator for the head, free orientation, no depth weighting.
 
     Parameters
     ----------
     head : HeadModel
+        The head (its forward model, ``head.fwd``).
     sim : Simulation
         Any simulation of ``head`` with the noise covariance to use.
 
     Returns
     -------
     mne.minimum_norm.InverseOperator
+        For :func:`apply_minimum_norm`, any data of the head.
     """
     from mne.minimum_norm import make_inverse_operator
 
@@ -77,16 +90,26 @@ def inverse_operator(head, sim):
     return make_inverse_operator(evoked.info, head.fwd, cov, loose=1.0, depth=None, verbose=False)
 
 
-def apply_minimum_norm(head, sim, inverse, method="sLORETA", lambda2=1.0 / 9.0, prepared=False):
+def apply_minimum_norm(
+    head: HeadModel,
+    sim: Simulation,
+    inverse: InverseOperator,
+    method: str = "sLORETA",
+    lambda2: float = 1.0 / 9.0,
+    prepared: bool = False,
+) -> NDArray[np.float64]:
     """One of MNE's minimum-norm estimates of a simulation, as amplitudes on the positions.
 
     Parameters
     ----------
     head : HeadModel
+        The head the data were simulated on.
     sim : Simulation
+        The data to reconstruct.
     inverse : mne.minimum_norm.InverseOperator
         From :func:`inverse_operator`.
     method : {"MNE", "dSPM", "sLORETA", "eLORETA"}
+        MNE's method.
     lambda2 : float
         MNE's regularization, 1 / SNR² (1/9: MNE's usual value for evoked data).
     prepared : bool
@@ -103,13 +126,13 @@ def apply_minimum_norm(head, sim, inverse, method="sLORETA", lambda2=1.0 / 9.0, 
     from .._utils.checks import check_choice, check_real
 
     check_choice("method", method, MINIMUM_NORM_METHODS)
-    lambda2 = check_real("lambda2", lambda2, positive=True)
+    regularization = check_real("lambda2", lambda2, positive=True)
     evoked = mne_data(head, sim)[0]
-    stc = apply_inverse(evoked, inverse, lambda2, method, prepared=prepared, verbose=False)
+    stc = apply_inverse(evoked, inverse, regularization, method, prepared=prepared, verbose=False)
     return amplitude_on_positions(stc, head)
 
 
-def amplitude_on_positions(stc, head):
+def amplitude_on_positions(stc: Any, head: Any) -> NDArray[np.float64]:
     """An MNE estimate's rows on the head's positions, zero where it has none.
 
     Parameters
@@ -122,6 +145,7 @@ def amplitude_on_positions(stc, head):
     Returns
     -------
     ndarray, shape (n_positions, n_times)
+        The absolute value of the estimate's row at each of its positions.
 
     Examples
     --------

@@ -19,8 +19,11 @@ of MNE's "sample" subject) when MNE's testing dataset is at hand, the sphere oth
 from __future__ import annotations
 
 import json
+import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -30,6 +33,13 @@ from .._utils.log import logger, progress, verbosity
 from ..method import PAPER_SETTING
 from ..method._settings import check_smoother
 from .sizes import DEFAULT_POSITIONS
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ..method import Reconstruction, TuneResult
+    from .head import HeadModel
+    from .scenario import Simulation
 
 __all__ = ["DATA", "HEADS", "OUTPUTS", "Demo", "run_demo"]
 
@@ -57,9 +67,12 @@ _SUFFIX = {"present": "", "deep absent": "_deep_absent"}  # of the arrays' names
 class Demo:
     """What :func:`run_demo` computed.
 
-    Attributes
+    Each parameter is an attribute of the same name.
+
+    Parameters
     ----------
     head : HeadModel
+        The head the data were simulated on and reconstructed in.
     simulations : dict
         :data:`DATA` label -> :class:`skf_ref.study.scenario.Simulation`.
     methods : dict
@@ -75,32 +88,32 @@ class Demo:
         Everything that produced the results (JSON-ready).
     """
 
-    head: object = field(repr=False)
-    simulations: dict = field(repr=False)
-    methods: dict
-    reconstructions: dict = field(repr=False)
-    estimates: dict = field(repr=False)
-    metrics: object = field(repr=False)
-    settings: dict = field(repr=False)
+    head: HeadModel = field(repr=False)
+    simulations: dict[str, Simulation] = field(repr=False)
+    methods: dict[str, str]
+    reconstructions: dict[tuple[str, str], Reconstruction] = field(repr=False)
+    estimates: dict[tuple[str, str], np.ndarray] = field(repr=False)
+    metrics: pd.DataFrame = field(repr=False)
+    settings: dict[str, Any] = field(repr=False)
 
 
 def run_demo(
-    out=None,
+    out: str | os.PathLike | None = None,
     *,
-    snr_db=30.0,
-    seed=0,
-    head="auto",
-    source_space="anatomical",
-    montage="biosemi64",
-    n_positions=None,
-    testing_data=None,
-    cache_dir=None,
-    pm_snr_db=0.0,
-    ep_snr_db=20.0,
-    exponent=0.5,
-    smoother=None,
-    verbose=None,
-):
+    snr_db: float = 30.0,
+    seed: int = 0,
+    head: str = "auto",
+    source_space: str = "anatomical",
+    montage: str = "biosemi64",
+    n_positions: int | None = None,
+    testing_data: str | os.PathLike | None = None,
+    cache_dir: str | os.PathLike | None = None,
+    pm_snr_db: float | str = 0.0,
+    ep_snr_db: float | str = 20.0,
+    exponent: float = 0.5,
+    smoother: str | None = None,
+    verbose: bool | str | int | None = None,
+) -> Demo:
     """Simulate the P20/N20 scenario and its control; reconstruct them three ways.
 
     Parameters
@@ -135,6 +148,7 @@ def run_demo(
     Returns
     -------
     Demo
+        The head, the data, every reconstruction and estimate, the metrics and the settings.
     """
     import pandas as pd
 
@@ -145,7 +159,7 @@ def run_demo(
     check_choice("head", head, HEADS)
     smoother = check_smoother(smoother)
     seed = check_int("seed", seed, minimum=0)
-    out = _output_folder(out)
+    folder = _output_folder(out)
     with verbosity(verbose):
         testing = None if head == "sphere" else find_testing_data(testing_data)
         if head == "realistic" and testing is None:
@@ -196,13 +210,13 @@ def run_demo(
         settings = _settings(model, sims["present"], setting, priors, tuning, snr_db, seed)
         settings.update(pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db, positions_requested=n_positions)
         demo = Demo(model, sims, methods, reconstructions, estimates, table, settings)
-        if out is not None:
+        if folder is not None:
             with progress("figures and files"):
-                write(demo, out)
+                write(demo, folder)
     return demo
 
 
-def _check_size(n_positions, montage):
+def _check_size(n_positions: int, montage: str) -> None:
     """Refuse a sphere grid whose model and six outputs do not fit in memory, before work."""
     from .._utils import memory
     from .head import check_size
@@ -212,23 +226,25 @@ def _check_size(n_positions, montage):
     check_size(n_positions, montage, extra=outputs, name="n_positions")
 
 
-def _output_folder(out):
+def _output_folder(out: str | os.PathLike | None) -> Path | None:
     """``out`` as a Path, refused before any work if it cannot become a folder."""
     if out is None:
         return None
-    out = Path(out)
-    existing = next(p for p in (out, *out.parents) if p.exists())
+    folder = Path(out)
+    existing = next(p for p in (folder, *folder.parents) if p.exists())
     if not existing.is_dir():
-        raise InputError(f"out must be a folder, got {str(out)!r}; {str(existing)!r} is a file")
-    return out
+        raise InputError(f"out must be a folder, got {str(folder)!r}; {str(existing)!r} is a file")
+    return folder
 
 
-def _label(setting):
+def _label(setting: Mapping[str, Any]) -> str:
     smoother = setting["smoother"] or "no smoother"
     return f"SKF, exponent {setting['exponent']:g}, {smoother}"
 
 
-def _priors(head, sim, pm_snr_db, ep_snr_db):
+def _priors(
+    head: HeadModel, sim: Simulation, pm_snr_db: float | str, ep_snr_db: float | str
+) -> tuple[tuple[float, float], TuneResult | None]:
     from ..method._tuning import choose_priors
 
     theta0, q, tuning = choose_priors(
@@ -244,11 +260,16 @@ def _priors(head, sim, pm_snr_db, ep_snr_db):
     return (theta0, q), tuning
 
 
-def _skf(head, sims, priors, settings):
+def _skf(
+    head: HeadModel,
+    sims: Mapping[str, Simulation],
+    priors: tuple[float, float],
+    settings: Mapping[str, Mapping[str, Any]],
+) -> dict[tuple[str, str], Reconstruction]:
     from ..method import reconstruct
 
     theta0, q = priors
-    out = {}
+    out: dict[tuple[str, str], Reconstruction] = {}
     for key, setting in settings.items():
         for data, sim in sims.items():
             rec = reconstruct(
@@ -259,7 +280,7 @@ def _skf(head, sims, priors, settings):
     return out
 
 
-def _sloreta(head, sims):
+def _sloreta(head: HeadModel, sims: Mapping[str, Simulation]) -> dict[tuple[str, str], np.ndarray]:
     from .baselines import apply_minimum_norm, inverse_operator
 
     inverse = inverse_operator(head, sims["present"])
@@ -269,7 +290,15 @@ def _sloreta(head, sims):
     }
 
 
-def _settings(head, sim, setting, priors, tuning, snr_db, seed):
+def _settings(
+    head: HeadModel,
+    sim: Simulation,
+    setting: Mapping[str, Any],
+    priors: tuple[float, float],
+    tuning: TuneResult | None,
+    snr_db: float,
+    seed: int,
+) -> dict[str, Any]:
     from .._utils.provenance import machine
 
     return {
@@ -297,14 +326,23 @@ def _settings(head, sim, setting, priors, tuning, snr_db, seed):
     }
 
 
-def write(demo, out):
-    """Write a demo's :data:`OUTPUTS` into the folder ``out`` (each file atomically)."""
+def write(demo: Demo, out: str | os.PathLike) -> None:
+    """Write a demo's :data:`OUTPUTS` into a folder, each file atomically.
+
+    Parameters
+    ----------
+    demo : Demo
+        What :func:`run_demo` returned.
+    out : path-like
+        The folder (created if needed).
+    """
     import pandas as pd
 
     from . import metrics
 
-    out = _output_folder(out)
-    out.mkdir(parents=True, exist_ok=True)
+    folder = Path(out)
+    _output_folder(folder)  # refused if it cannot become a folder
+    folder.mkdir(parents=True, exist_ok=True)
     present = demo.simulations["present"]
     arrays = {}
     for (key, data), rec in demo.reconstructions.items():
@@ -312,7 +350,7 @@ def write(demo, out):
     for data, sim in demo.simulations.items():
         arrays[f"amplitude_sloreta{_SUFFIX[data]}"] = demo.estimates["sLORETA", data]
         arrays[f"Y{_SUFFIX[data]}"] = sim.Y
-    with atomic_path(out / "reconstruction.npz") as tmp:
+    with atomic_path(folder / "reconstruction.npz") as tmp:
         np.savez_compressed(
             tmp,
             **arrays,
@@ -322,17 +360,17 @@ def write(demo, out):
             true_positions=present.truth.positions,
             true_waveforms=present.truth.waveforms,
         )
-    with atomic_path(out / "settings.json") as tmp:
+    with atomic_path(folder / "settings.json") as tmp:
         tmp.write_text(json.dumps(demo.settings, indent=1) + "\n")
-    with atomic_path(out / "metrics.csv") as tmp:
+    with atomic_path(folder / "metrics.csv") as tmp:
         demo.metrics.to_csv(tmp, index_label="metric")
-    with atomic_path(out / "metrics_columns.csv") as tmp:
+    with atomic_path(folder / "metrics_columns.csv") as tmp:
         columns = pd.DataFrame(metrics.COLUMNS, columns=["metric", "meaning", "unit", "better"])
         columns.to_csv(tmp, index=False)
-    _figures(demo, out)
+    _figures(demo, folder)
 
 
-def _figures(demo, out):
+def _figures(demo: Demo, out: Path) -> None:
     from . import plots
 
     present = demo.simulations["present"]

@@ -12,7 +12,10 @@ at that time.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._utils.checks import InputError, check_array, check_real, check_vector
 from .regions import (
@@ -96,12 +99,15 @@ COLUMNS = (
 )
 
 
-def peak_localization_error(amplitude, positions, true_position, peak_index):
+def peak_localization_error(
+    amplitude: ArrayLike, positions: ArrayLike, true_position: ArrayLike, peak_index: int
+) -> float:
     """Distance (mm) from the true position to the amplitude's maximum at the peak time.
 
     Parameters
     ----------
     amplitude : ndarray, shape (n_positions, n_times)
+        The amplitude of each position at each time.
     positions : ndarray, shape (n_positions, 3)
         Grid positions in metres.
     true_position : ndarray, shape (3,)
@@ -112,6 +118,7 @@ def peak_localization_error(amplitude, positions, true_position, peak_index):
     Returns
     -------
     error_mm : float
+        In mm; 0 when the maximum is at the true position.
 
     Examples
     --------
@@ -119,20 +126,27 @@ def peak_localization_error(amplitude, positions, true_position, peak_index):
     >>> peak_localization_error(np.array([[1.0], [3.0]]), positions, np.zeros(3), 0)
     20.0
     """
-    positions = check_positions(positions)
-    amplitude = check_amplitude(amplitude, len(positions))
-    peak_index = check_time_index("peak_index", peak_index, amplitude.shape[1])
-    true_position = check_vector("true_position", true_position, 3)
-    best = positions[np.argmax(amplitude[:, peak_index])]
-    return float(np.linalg.norm(best - true_position) * 1e3)
+    grid = check_positions(positions)
+    amp = check_amplitude(amplitude, len(grid))
+    peak = check_time_index("peak_index", peak_index, amp.shape[1])
+    true = check_vector("true_position", true_position, 3)
+    best = grid[np.argmax(amp[:, peak])]
+    return float(np.linalg.norm(best - true) * 1e3)
 
 
-def detected(amplitude, positions, true_position, index, dynamic_range_db=DYNAMIC_RANGE_DB):
+def detected(
+    amplitude: ArrayLike,
+    positions: ArrayLike,
+    true_position: ArrayLike,
+    index: int,
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+) -> bool:
     """Whether a source's region is within `dynamic_range_db` of the global max at `index`.
 
     Parameters
     ----------
     amplitude : ndarray, shape (n_positions, n_times)
+        The amplitude of each position at each time.
     positions : ndarray, shape (n_positions, 3)
         Grid positions in metres.
     true_position : ndarray, shape (3,)
@@ -145,6 +159,7 @@ def detected(amplitude, positions, true_position, index, dynamic_range_db=DYNAMI
     Returns
     -------
     detected : bool
+        Whether the region's maximum is within the dynamic range.
 
     Examples
     --------
@@ -154,11 +169,18 @@ def detected(amplitude, positions, true_position, index, dynamic_range_db=DYNAMI
     >>> detected(np.array([[0.4], [1.0]]), positions, np.zeros(3), 0)
     False
     """
-    dynamic_range_db = check_real("dynamic_range_db", dynamic_range_db, positive=True)
-    return bool(region_db(amplitude, positions, true_position, index) >= -dynamic_range_db)
+    dynamic_range = check_real("dynamic_range_db", dynamic_range_db, positive=True)
+    return bool(region_db(amplitude, positions, true_position, index) >= -dynamic_range)
 
 
-def echo(amplitude, positions, deep_position, deep_peak_index, superficial_peak_index, true_ratio):
+def echo(
+    amplitude: ArrayLike,
+    positions: ArrayLike,
+    deep_position: ArrayLike,
+    deep_peak_index: int,
+    superficial_peak_index: int,
+    true_ratio: float,
+) -> float:
     """Deep region's max at the superficial peak over its max at the deep peak, minus truth.
 
     Zero for a reconstruction whose deep region follows the true deep waveform; positive when
@@ -167,6 +189,7 @@ def echo(amplitude, positions, deep_position, deep_peak_index, superficial_peak_
     Parameters
     ----------
     amplitude : ndarray, shape (n_positions, n_times)
+        The amplitude of each position at each time.
     positions : ndarray, shape (n_positions, 3)
         Grid positions in metres.
     deep_position : ndarray, shape (3,)
@@ -179,6 +202,7 @@ def echo(amplitude, positions, deep_position, deep_peak_index, superficial_peak_
     Returns
     -------
     echo : float
+        The ratio minus ``true_ratio``; NaN if undefined.
 
     Examples
     --------
@@ -186,21 +210,22 @@ def echo(amplitude, positions, deep_position, deep_peak_index, superficial_peak_
     0.25
     """
     course = region_time_course(amplitude, positions, deep_position)
-    deep_peak_index = check_time_index("deep_peak_index", deep_peak_index, course.size)
-    superficial_peak_index = check_time_index(
-        "superficial_peak_index", superficial_peak_index, course.size
-    )
-    if course[deep_peak_index] == 0:
+    deep = check_time_index("deep_peak_index", deep_peak_index, course.size)
+    superficial = check_time_index("superficial_peak_index", superficial_peak_index, course.size)
+    if course[deep] == 0:
         return float("nan")
-    return float(course[superficial_peak_index] / course[deep_peak_index] - true_ratio)
+    return float(course[superficial] / course[deep] - true_ratio)
 
 
-def time_course_correlation(amplitude, positions, true_position, true_waveform):
+def time_course_correlation(
+    amplitude: ArrayLike, positions: ArrayLike, true_position: ArrayLike, true_waveform: ArrayLike
+) -> float:
     """Pearson correlation of a region's max over time with the true waveform's magnitude.
 
     Parameters
     ----------
     amplitude : ndarray, shape (n_positions, n_times)
+        The amplitude of each position at each time.
     positions : ndarray, shape (n_positions, 3)
         Grid positions in metres.
     true_position : ndarray, shape (3,)
@@ -232,19 +257,20 @@ def time_course_correlation(amplitude, positions, true_position, true_waveform):
 
 
 def separation(
-    amplitude,
-    positions,
-    deep_position,
-    superficial_position,
-    deep_peak_index,
-    superficial_peak_index,
-    dynamic_range_db=DYNAMIC_RANGE_DB,
-):
+    amplitude: ArrayLike,
+    positions: ArrayLike,
+    deep_position: ArrayLike,
+    superficial_position: ArrayLike,
+    deep_peak_index: int,
+    superficial_peak_index: int,
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+) -> bool:
     """Deep detected at its peak, superficial at its peak, deep not detected at the latter.
 
     Parameters
     ----------
     amplitude : ndarray, shape (n_positions, n_times)
+        The amplitude of each position at each time.
     positions : ndarray, shape (n_positions, 3)
         Grid positions in metres.
     deep_position, superficial_position : ndarray, shape (3,)
@@ -257,6 +283,7 @@ def separation(
     Returns
     -------
     separated : bool
+        Whether all three hold.
 
     Examples
     --------
@@ -273,7 +300,7 @@ def separation(
     )
 
 
-def summarize(reconstruction, head, truth):
+def summarize(reconstruction: Any, head: Any, truth: Any) -> dict[str, Any]:
     """All metrics for both sources of the P20/N20 scenario.
 
     Parameters

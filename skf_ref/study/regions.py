@@ -9,7 +9,10 @@ set of grid positions within ``radius_mm`` (15 mm) of its exact position (docs/m
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._utils.checks import InputError, check_array, check_int, check_real, check_vector
 
@@ -31,16 +34,46 @@ REGION_RADIUS_MM = 15.0
 DYNAMIC_RANGE_DB = 6.0
 
 
-def check_positions(positions, name="positions"):
-    """Grid positions: a finite (n_positions, 3) array with at least one row."""
+def check_positions(positions: ArrayLike, name: str = "positions") -> NDArray[np.float64]:
+    """Check grid positions: a finite (n_positions, 3) array with at least one row.
+
+    Parameters
+    ----------
+    positions : array_like, shape (n_positions, 3)
+        Grid positions in metres.
+    name : str
+        The parameter's name in the error message.
+
+    Returns
+    -------
+    positions : ndarray, shape (n_positions, 3)
+        The positions as a float array.
+    """
     pos = check_array(name, positions, ("n_positions", 3))
     if pos.shape[0] == 0:
         raise InputError(f"{name} must hold at least one position, got shape {pos.shape}")
     return pos
 
 
-def check_amplitude(amplitude, n_positions, name="amplitude"):
-    """A non-negative (n_positions, n_times) amplitude with at least one time."""
+def check_amplitude(
+    amplitude: ArrayLike, n_positions: int | str, name: str = "amplitude"
+) -> NDArray[np.float64]:
+    """Check a non-negative (n_positions, n_times) amplitude with at least one time.
+
+    Parameters
+    ----------
+    amplitude : array_like, shape (n_positions, n_times)
+        A position amplitude (a norm per position, so non-negative).
+    n_positions : int or str
+        The expected number of rows, or a name for any number.
+    name : str
+        The parameter's name in the error message.
+
+    Returns
+    -------
+    amplitude : ndarray, shape (n_positions, n_times)
+        The amplitude as a float array.
+    """
     amp = check_array(name, amplitude, (n_positions, "n_times"))
     if amp.shape[1] == 0:
         raise InputError(f"{name} must hold at least one time, got shape {amp.shape}")
@@ -49,12 +82,32 @@ def check_amplitude(amplitude, n_positions, name="amplitude"):
     return amp
 
 
-def check_time_index(name, index, n_times):
-    """A time index in ``[0, n_times)``."""
+def check_time_index(name: str, index: int, n_times: int) -> int:
+    """Check a time index: an integer in ``[0, n_times)``.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name in the error message.
+    index : int
+        The time index.
+    n_times : int
+        The number of times it indexes.
+
+    Returns
+    -------
+    int
+        ``index``.
+    """
     return check_int(name, index, minimum=0, maximum=n_times - 1)
 
 
-def _region(positions, true_position, radius_mm, name="true_position"):
+def _region(
+    positions: NDArray[np.float64],
+    true_position: ArrayLike,
+    radius_mm: float,
+    name: str = "true_position",
+) -> NDArray[np.bool_]:
     mask = region_mask(positions, true_position, radius_mm)
     if not mask.any():
         raise InputError(
@@ -64,7 +117,7 @@ def _region(positions, true_position, radius_mm, name="true_position"):
     return mask
 
 
-def as_amplitude(reconstruction, n_positions):
+def as_amplitude(reconstruction: Any, n_positions: int) -> NDArray[np.float64]:
     """Position amplitude of a reconstruction object or an amplitude array.
 
     Parameters
@@ -78,6 +131,7 @@ def as_amplitude(reconstruction, n_positions):
     Returns
     -------
     amplitude : ndarray, shape (n_positions, n_times)
+        The amplitude of each position at each time.
 
     Examples
     --------
@@ -96,7 +150,9 @@ def as_amplitude(reconstruction, n_positions):
     return amp
 
 
-def region_mask(positions, true_position, radius_mm=REGION_RADIUS_MM):
+def region_mask(
+    positions: ArrayLike, true_position: ArrayLike, radius_mm: float = REGION_RADIUS_MM
+) -> NDArray[np.bool_]:
     """Grid positions within `radius_mm` of a true position.
 
     Parameters
@@ -111,24 +167,31 @@ def region_mask(positions, true_position, radius_mm=REGION_RADIUS_MM):
     Returns
     -------
     mask : ndarray of bool, shape (n_positions,)
+        True at the positions within the region.
 
     Examples
     --------
     >>> region_mask(np.array([[0, 0, 0], [0.01, 0, 0], [0.02, 0, 0]]), np.zeros(3))
     array([ True,  True, False])
     """
-    positions = check_positions(positions)
-    true_position = check_vector("true_position", true_position, 3)
-    radius_mm = check_real("radius_mm", radius_mm, positive=True)
-    return np.linalg.norm(positions - true_position, axis=1) * 1e3 <= radius_mm
+    grid = check_positions(positions)
+    true = check_vector("true_position", true_position, 3)
+    radius = check_real("radius_mm", radius_mm, positive=True)
+    return np.linalg.norm(grid - true, axis=1) * 1e3 <= radius
 
 
-def region_time_course(amplitude, positions, true_position, radius_mm=REGION_RADIUS_MM):
+def region_time_course(
+    amplitude: ArrayLike,
+    positions: ArrayLike,
+    true_position: ArrayLike,
+    radius_mm: float = REGION_RADIUS_MM,
+) -> NDArray[np.float64]:
     """Maximum amplitude over a source's region at each time.
 
     Parameters
     ----------
     amplitude : ndarray, shape (n_positions, n_times)
+        The amplitude of each position at each time.
     positions : ndarray, shape (n_positions, 3)
         Grid positions in metres.
     true_position : ndarray, shape (3,)
@@ -139,6 +202,7 @@ def region_time_course(amplitude, positions, true_position, radius_mm=REGION_RAD
     Returns
     -------
     course : ndarray, shape (n_times,)
+        The region's largest amplitude at each time.
 
     Examples
     --------
@@ -151,7 +215,13 @@ def region_time_course(amplitude, positions, true_position, radius_mm=REGION_RAD
     return amplitude[_region(positions, true_position, radius_mm)].max(axis=0)
 
 
-def region_db(amplitude, positions, true_position, index, radius_mm=REGION_RADIUS_MM):
+def region_db(
+    amplitude: ArrayLike,
+    positions: ArrayLike,
+    true_position: ArrayLike,
+    index: int,
+    radius_mm: float = REGION_RADIUS_MM,
+) -> float:
     """A region's maximum at one time relative to the global maximum then, in dB.
 
     Returns ``20 log10(max_region a / max_all a)`` at time `index` (0 dB: the region holds
@@ -160,6 +230,7 @@ def region_db(amplitude, positions, true_position, index, radius_mm=REGION_RADIU
     Parameters
     ----------
     amplitude : ndarray, shape (n_positions, n_times)
+        The amplitude of each position at each time.
     positions : ndarray, shape (n_positions, 3)
         Grid positions in metres.
     true_position : ndarray, shape (3,)
@@ -172,6 +243,7 @@ def region_db(amplitude, positions, true_position, index, radius_mm=REGION_RADIU
     Returns
     -------
     db : float
+        At most 0 dB.
 
     Examples
     --------

@@ -18,9 +18,12 @@ still be reached from here, where the first release put them.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._utils.checks import (
     InputError,
@@ -69,7 +72,9 @@ _BLACKMAN_HARRIS = (0.35875, 0.48829, 0.14128, 0.01168)
 class Truth:
     """The exact sources of a simulation (index 0 deep, 1 superficial).
 
-    Attributes
+    Made by :meth:`Scenario.dipoles`; each parameter is an attribute of the same name.
+
+    Parameters
     ----------
     names : tuple of str
         ``("deep", "superficial")``.
@@ -89,17 +94,17 @@ class Truth:
         head coordinates).
     """
 
-    names: tuple
+    names: tuple[str, ...]
     positions: np.ndarray = field(repr=False)
     orientations: np.ndarray = field(repr=False)
     waveforms: np.ndarray = field(repr=False)
     peak_times: np.ndarray
     times: np.ndarray = field(repr=False)
-    moved_mm: tuple = (0.0, 0.0)
+    moved_mm: tuple[float, ...] = (0.0, 0.0)
 
     @property
-    def peak_indices(self):
-        """ndarray of int, shape (2,) : Sample index nearest to each peak time."""
+    def peak_indices(self) -> NDArray[np.intp]:
+        """Sample index nearest to each peak time, shape (2,)."""
         return np.abs(self.times[None, :] - self.peak_times[:, None]).argmin(axis=1)
 
 
@@ -107,7 +112,9 @@ class Truth:
 class Scenario:
     """Two dipoles with pulse waveforms, head independent (index 0 deep, 1 superficial).
 
-    Attributes
+    Made by :func:`p20n20_scenario`; each parameter is an attribute of the same name.
+
+    Parameters
     ----------
     names : tuple of str
         ``("deep", "superficial")``.
@@ -135,19 +142,19 @@ class Scenario:
         Pulse window, one of :data:`WINDOWS`.
     """
 
-    names: tuple
+    names: tuple[str, ...]
     positions: np.ndarray = field(repr=False)
     orientations: np.ndarray = field(repr=False)
-    tangential: tuple
+    tangential: tuple[bool, ...]
     times: np.ndarray = field(repr=False)
     waveforms: np.ndarray = field(repr=False)
     peak_times: np.ndarray
     sfreq: float
     frame: str = "mni"
-    labels: tuple = _LABELS
+    labels: tuple[str, ...] = _LABELS
     window: str = "hann"
 
-    def _placed(self, head):
+    def _placed(self, head: Any) -> tuple[np.ndarray, np.ndarray, tuple[float, ...]]:
         """Head positions and orientations of the sources, and how far each was moved."""
         if self.frame == "head":
             return np.array(self.positions), np.array(self.orientations), (0.0, 0.0)
@@ -166,7 +173,7 @@ class Scenario:
         positions = np.array([pos for pos, _ in placed])
         return positions, orientations, tuple(moved for _, moved in placed)
 
-    def dipoles(self, head):
+    def dipoles(self, head: Any) -> Truth:
         """Exact sources in `head`: placed, unit orientations, the tangential ones tangential.
 
         MNI positions are mapped into the head by ``head.anatomy`` (and moved into their
@@ -184,6 +191,7 @@ class Scenario:
         Returns
         -------
         truth : Truth
+            The sources as placed in ``head``.
         """
         positions, given, moved = self._placed(head)
         orientations = []
@@ -208,7 +216,7 @@ class Scenario:
         )
 
 
-def _radial(head, position, name):
+def _radial(head: Any, position: np.ndarray, name: str) -> np.ndarray:
     if hasattr(head, "radial"):
         return head.radial(position)
     radial = position - np.asarray(head.origin, dtype=float)
@@ -217,7 +225,9 @@ def _radial(head, position, name):
     return radial / np.linalg.norm(radial)
 
 
-def _pulse(times, onset, width, peak, window="hann"):
+def _pulse(
+    times: np.ndarray, onset: float, width: float, peak: float, window: str = "hann"
+) -> np.ndarray:
     """A window pulse of support (onset, onset + width) peaking at ``peak`` in its centre.
 
     Hann: ``peak * sin(pi x) ** 2``; Blackman-Harris: ``peak * sum_k (-1)**k a_k cos(2 pi k
@@ -237,19 +247,19 @@ def _pulse(times, onset, width, peak, window="hann"):
 
 def p20n20_scenario(
     *,
-    deep_position_mm=DEEP_MNI_MM,
-    deep_orientation=(0.2, 0.196, -0.981),
-    superficial_position_mm=SUPERFICIAL_MNI_MM,
-    superficial_orientation=(0.2, 1, 0),
-    frame="mni",
-    peak_amplitude_nam=10.0,
-    pulse_ms=3.0,
-    deep_onset_ms=0.0,
-    superficial_onset_ms=1.0,
-    sfreq=10000.0,
-    duration_ms=4.0,
-    window="hann",
-):
+    deep_position_mm: ArrayLike = DEEP_MNI_MM,
+    deep_orientation: ArrayLike = (0.2, 0.196, -0.981),
+    superficial_position_mm: ArrayLike = SUPERFICIAL_MNI_MM,
+    superficial_orientation: ArrayLike = (0.2, 1, 0),
+    frame: str = "mni",
+    peak_amplitude_nam: float = 10.0,
+    pulse_ms: float = 3.0,
+    deep_onset_ms: float = 0.0,
+    superficial_onset_ms: float = 1.0,
+    sfreq: float = 10000.0,
+    duration_ms: float = 4.0,
+    window: str = "hann",
+) -> Scenario:
     """The paper's P20/N20 scenario: a thalamic and a cortical dipole, 2 ms apart.
 
     Each waveform is a pulse of `pulse_ms` support (zero at both ends; `window` "hann" or
@@ -261,9 +271,35 @@ def p20n20_scenario(
     ``"head"`` (head coordinates). :meth:`Scenario.dipoles` places them in a head,
     normalizes the orientations and makes the superficial one tangential.
 
+    Parameters
+    ----------
+    deep_position_mm : array_like, shape (3,)
+        The deep source's position in mm, in ``frame``.
+    deep_orientation : array_like, shape (3,)
+        Its orientation in ``frame``, nonzero (normalized when placed).
+    superficial_position_mm : array_like, shape (3,)
+        The superficial source's position in mm, in ``frame``.
+    superficial_orientation : array_like, shape (3,)
+        Its orientation in ``frame``, nonzero (made tangential and normalized when placed).
+    frame : {"mni", "head"}
+        The coordinates of the positions and orientations.
+    peak_amplitude_nam : float
+        Each pulse's peak dipole moment in nA·m.
+    pulse_ms : float
+        Each pulse's support in ms.
+    deep_onset_ms, superficial_onset_ms : float
+        Where each pulse starts, ms.
+    sfreq : float
+        Sampling frequency in Hz; it samples each pulse at least twice.
+    duration_ms : float
+        The data's span in ms; it covers every pulse.
+    window : {"hann", "blackman-harris"}
+        The pulses' window.
+
     Returns
     -------
     scenario : Scenario
+        Head independent: :meth:`Scenario.dipoles` places it in a head.
 
     Examples
     --------
@@ -271,8 +307,8 @@ def p20n20_scenario(
     >>> sc.times.shape, sc.peak_times * 1e3
     ((41,), array([1.5, 2.5]))
     """
-    frame = check_choice("frame", frame, ("mni", "head"))
-    window = check_choice("window", window, WINDOWS)
+    check_choice("frame", frame, ("mni", "head"))
+    check_choice("window", window, WINDOWS)
     positions = [check_vector("deep_position_mm", deep_position_mm, 3)]
     positions.append(check_vector("superficial_position_mm", superficial_position_mm, 3))
     orientations = []
@@ -290,9 +326,9 @@ def p20n20_scenario(
         check_real("deep_onset_ms", deep_onset_ms, nonnegative=True) * 1e-3,
         check_real("superficial_onset_ms", superficial_onset_ms, nonnegative=True) * 1e-3,
     ]
-    sfreq = check_real("sfreq", sfreq, positive=True)
+    rate = check_real("sfreq", sfreq, positive=True)
     duration = check_real("duration_ms", duration_ms, positive=True) * 1e-3
-    if width * sfreq < 2.0:
+    if width * rate < 2.0:
         raise InputError(
             f"sfreq must sample each pulse at least twice: pulse_ms * sfreq / 1000 >= 2, got "
             f"sfreq={sfreq!r} with pulse_ms={pulse_ms!r}"
@@ -303,8 +339,8 @@ def p20n20_scenario(
                 f"duration_ms must cover every pulse: the {name} pulse ends at "
                 f"{(onset + width) * 1e3:g} ms, got duration_ms={duration_ms!r}"
             )
-    n_times = int(np.floor(duration * sfreq + 1e-6)) + 1
-    times = np.arange(n_times) / sfreq
+    n_times = int(np.floor(duration * rate + 1e-6)) + 1
+    times = np.arange(n_times) / rate
     waveforms = [_pulse(times, onset, width, peak, window) for onset in onsets]
     return Scenario(
         names=("deep", "superficial"),
@@ -314,7 +350,7 @@ def p20n20_scenario(
         times=readonly(times),
         waveforms=readonly(waveforms),
         peak_times=readonly([onset + width / 2 for onset in onsets]),
-        sfreq=sfreq,
+        sfreq=rate,
         frame=frame,
         window=window,
     )
@@ -324,7 +360,9 @@ def p20n20_scenario(
 class Simulation:
     """Simulated EEG with its ground truth.
 
-    Attributes
+    Made by :func:`simulate`; each parameter is an attribute of the same name.
+
+    Parameters
     ----------
     Y : ndarray, shape (n_channels, n_times)
         Noisy data in V: the average-referenced ``Y_clean`` plus noise drawn from
@@ -356,9 +394,9 @@ class Simulation:
     times: np.ndarray = field(repr=False)
     snr_db: float
     truth: Truth = field(repr=False)
-    sources: tuple = ("deep", "superficial")
+    sources: tuple[str, ...] = ("deep", "superficial")
     noise: str = "white"
-    noise_cov: np.ndarray = field(default=None, repr=False)
+    noise_cov: np.ndarray | None = field(default=None, repr=False)
 
 
 SOURCES = ("deep", "superficial")
@@ -367,7 +405,7 @@ FORWARDS = ("exact", "grid")
 NOISES = ("white", "head")
 
 
-def _grid_gain(head, truth):
+def _grid_gain(head: HeadModel, truth: Truth) -> np.ndarray:
     """Average-referenced gain of the grid columns at each source's nearest position."""
     nearest = np.linalg.norm(head.positions[:, None] - truth.positions[None], axis=2)
     columns = [head.leadfield[:, 3 * p : 3 * p + 3] for p in nearest.argmin(axis=0)]
@@ -376,7 +414,16 @@ def _grid_gain(head, truth):
     )
 
 
-def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact", noise="white"):
+def simulate(
+    head: HeadModel,
+    scenario: Scenario,
+    snr_db: float,
+    seed: int | np.random.Generator,
+    *,
+    sources: Sequence[str] = SOURCES,
+    forward: str = "exact",
+    noise: str = "white",
+) -> Simulation:
     """Simulate the scenario's EEG in the head with Gaussian noise.
 
     ``Y_clean = G @ waveforms`` with ``G`` the average-referenced forward field of the exact
@@ -389,7 +436,9 @@ def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact", 
     Parameters
     ----------
     head : HeadModel
+        The head (:func:`skf_ref.study.head.make_head`).
     scenario : Scenario
+        The sources (:func:`p20n20_scenario`).
     snr_db : float
         Peak SNR in dB, within +-300: ``sigma = max|Y_clean| * 10 ** (-snr_db / 20)`` of the
         data with both sources.
@@ -409,6 +458,7 @@ def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact", 
     Returns
     -------
     sim : Simulation
+        The data, the noise's covariance and the truth.
 
     Examples
     --------
@@ -418,13 +468,13 @@ def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact", 
     """
     check_instance("head", head, HeadModel, "a HeadModel (skf_ref.study.head.make_head_model)")
     check_instance("scenario", scenario, Scenario, "a Scenario (p20n20_scenario)")
-    snr_db = check_db("snr_db", snr_db)
+    snr = check_db("snr_db", snr_db)
     if not isinstance(seed, np.random.Generator):
         seed = check_int("seed", seed, minimum=0)
     if isinstance(sources, str) or not all(name in SOURCES for name in sources) or not sources:
         raise InputError(f"sources must be a non-empty subset of {list(SOURCES)}, got {sources!r}")
-    forward = check_choice("forward", forward, FORWARDS)
-    noise = check_choice("noise", noise, NOISES)
+    check_choice("forward", forward, FORWARDS)
+    check_choice("noise", noise, NOISES)
     if noise == "head" and head.noise_cov is None:
         raise InputError(
             "noise='head' needs a head with a recorded noise covariance (head.noise_cov): "
@@ -432,7 +482,7 @@ def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact", 
         )
     truth = scenario.dipoles(head)
     for name, pos in zip(truth.names, truth.positions, strict=True):
-        if head.anatomy.boundary is None:
+        if head.anatomy is None or head.anatomy.boundary is None:
             depth = np.linalg.norm(pos - head.origin)
             if depth >= head.brain_radius:
                 raise InputError(
@@ -449,11 +499,11 @@ def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact", 
         gain = head.dipole_gain(truth.positions, truth.orientations)
     else:
         gain = _grid_gain(head, truth)
-    sigma = float(np.abs(gain @ truth.waveforms).max() * 10.0 ** (-snr_db / 20.0))
+    sigma = float(np.abs(gain @ truth.waveforms).max() * 10.0 ** (-snr / 20.0))
     active = np.array([name in sources for name in truth.names], dtype=float)
     Y_clean = gain @ (active[:, None] * truth.waveforms)
     rng = np.random.default_rng(seed)
-    if noise == "white":
+    if head.noise_cov is None or noise == "white":
         noise_cov = sigma**2 * np.eye(len(Y_clean))
         drawn = sigma * rng.standard_normal(Y_clean.shape)
     else:
@@ -465,7 +515,7 @@ def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact", 
         Y_clean=readonly(Y_clean),
         sigma=sigma,
         times=truth.times,
-        snr_db=snr_db,
+        snr_db=snr,
         truth=truth,
         sources=tuple(name for name in truth.names if name in sources),
         noise=noise,
@@ -473,7 +523,7 @@ def simulate(head, scenario, snr_db, seed, *, sources=SOURCES, forward="exact", 
     )
 
 
-def _covariance_factor(C):
+def _covariance_factor(C: np.ndarray) -> np.ndarray:
     """``F`` with ``F F^T = C`` for a symmetric positive semi-definite ``C`` (eigh; the
     directions of eigenvalues at rounding level, an average reference's, left out)."""
     lam, U = np.linalg.eigh(C)

@@ -27,6 +27,7 @@ Needs numpy only: copy it into your project and adapt it.
 import argparse
 import importlib
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -66,6 +67,18 @@ def read_case(path):
         )
 
 
+def case_name(entry):
+    """A case's name from manifest.json, refused unless it is a plain file name: a name
+    such as ``../elsewhere/x`` or ``/tmp/x`` would read and write outside the folders."""
+    name = entry.get("name") if isinstance(entry, dict) else None
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", name):
+        raise SystemExit(
+            f"run_cases.py: manifest.json names a case {name!r}, which is not a plain file "
+            "name (letters, digits, '_', '-', '.'): refused"
+        )
+    return name
+
+
 def run(case_dir, out_dir, skf):
     """Run ``skf`` on every case of ``case_dir``; save its outputs in ``out_dir``.
 
@@ -73,10 +86,11 @@ def run(case_dir, out_dir, skf):
     """
     case_dir, out_dir = Path(case_dir), Path(out_dir)
     manifest = json.loads((case_dir / "manifest.json").read_text(encoding="utf-8"))
+    names = [case_name(entry) for entry in manifest["cases"]]  # all checked before any work
     out_dir.mkdir(parents=True, exist_ok=True)
     done = []
-    for entry in manifest["cases"]:
-        case_file, out_file = case_dir / f"{entry['name']}.npz", out_dir / f"{entry['name']}.npz"
+    for case in names:
+        case_file, out_file = case_dir / f"{case}.npz", out_dir / f"{case}.npz"
         outputs = skf(**read_case(case_file))
         np.savez(out_file, **{name: outputs[name] for name in OUTPUTS if name in outputs})
         done.append((case_file, out_file))

@@ -18,6 +18,8 @@ Whether a head can hold the scenario is checked where the two meet, in
 :func:`skf_ref.study.scenario.simulate`.
 """
 
+import os
+
 from ..sizes import DEFAULT_POSITIONS
 from ._bem import (
     LABELS,
@@ -89,21 +91,23 @@ __all__ = [
 
 
 def make_head(
-    conductor="sphere",
-    source_space="volume",
+    conductor: str = "sphere",
+    source_space: str = "volume",
     *,
-    n_positions=DEFAULT_POSITIONS,
-    montage="biosemi64",
-    testing_data=None,
-    cache_dir=None,
-    spacing_mm=None,
-):
+    n_positions: int = DEFAULT_POSITIONS,
+    montage: str = "biosemi64",
+    testing_data: str | os.PathLike | None = None,
+    cache_dir: str | os.PathLike | None = None,
+    spacing_mm: float | None = None,
+) -> HeadModel:
     """One cell of conductor x source space.
 
     Parameters
     ----------
     conductor : {"sphere", "bem"}
+        MNE's four-shell sphere, or the sample subject's three-layer BEM.
     source_space : {"volume", "anatomical"}
+        A grid filling the brain compartment, or cortex + thalamus.
     n_positions : int
         Positions of the sphere's volume grid (the other source spaces have fixed spacings).
     montage : str
@@ -120,6 +124,7 @@ def make_head(
     Returns
     -------
     HeadModel
+        The head (:func:`make_sphere_head` or :func:`make_realistic_head`).
 
     Examples
     --------

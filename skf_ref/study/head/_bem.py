@@ -34,6 +34,7 @@ import functools
 import os
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -43,6 +44,9 @@ from ...method._result import readonly
 from ._data import SENSOR_FILES, SUBJECT, TESTING_FILES, cache_dir, find_testing_data, input_digest
 from ._model import Anatomy, HeadModel, apply_affine, finish_forward, with_average_reference
 from ._sphere import ANATOMICAL_SPACING_MM, MINDIST_MM, check_montage
+
+if TYPE_CHECKING:
+    import mne
 
 __all__ = [
     "CACHE_FORMAT",
@@ -74,9 +78,12 @@ _TEMPLATES = ("colin27_1005", "standard_1005")  # MNI 10-05 positions; the first
 
 
 def make_realistic_head(
-    testing_data=None, source_space="anatomical", montage="biosemi64", cache_dir=None,
-    spacing_mm=None,
-):  # fmt: skip
+    testing_data: str | os.PathLike | None = None,
+    source_space: str = "anatomical",
+    montage: str = "biosemi64",
+    cache_dir: str | os.PathLike | None = None,
+    spacing_mm: float | None = None,
+) -> HeadModel:
     """The sample subject's BEM head with either source space (see the module docstring).
 
     Parameters
@@ -84,6 +91,7 @@ def make_realistic_head(
     testing_data : path-like or None
         Root of MNE's testing dataset; None: MNE's own lookup, without downloading.
     source_space : {"anatomical", "volume"}
+        Cortex + thalamus, or a grid filling the inner skull.
     montage : str
         A built-in montage whose channel names are 10-05 names (e.g. ``"biosemi64"``), or
         :data:`SUBJECT_MONTAGE` (``"sample"``): the subject's own electrodes, with the noise
@@ -123,19 +131,17 @@ def make_realistic_head(
                 f"covariance from MNE's testing dataset; {str(root)!r} lacks {missing[0]}"
             )
     default = ANATOMICAL_SPACING_MM if source_space == "anatomical" else VOLUME_SPACING_MM
-    spacing_mm = check_real(
+    spacing = check_real(
         "spacing_mm", default if spacing_mm is None else spacing_mm, minimum=1.0, maximum=20.0
     )
-    return _build(
-        str(root), source_space, montage, str(_data_cache_dir(cache_dir)), float(spacing_mm)
-    )
+    return _build(str(root), source_space, montage, str(_data_cache_dir(cache_dir)), spacing)
 
 
 def _data_cache_dir(path):
     return cache_dir(path).resolve()
 
 
-def subject_mni_to_head(testing_data):
+def subject_mni_to_head(testing_data: str | os.PathLike) -> np.ndarray:
     """Affine (4 x 4, m -> m) from MNI coordinates to the sample subject's head frame.
 
     The inverse of :func:`mne.head_to_mni` (an affine map), evaluated on the origin and the
@@ -149,6 +155,7 @@ def subject_mni_to_head(testing_data):
     Returns
     -------
     ndarray, shape (4, 4)
+        The affine: head = A[:3, :3] @ mni + A[:3, 3], both in metres.
     """
     import mne
 
@@ -239,7 +246,7 @@ def _electrodes(montage, mni_to_head, scalp):
     return with_average_reference(info)
 
 
-def subject_electrodes(testing_data):
+def subject_electrodes(testing_data: str | os.PathLike) -> tuple[mne.Info, np.ndarray]:
     """The sample subject's own EEG electrodes and the noise covariance of its recording.
 
     The EEG channels of ``SSS/sample_audvis_trunc_raw_sss.fif`` that neither the recording
@@ -331,9 +338,9 @@ def _forward(root, cache, bem, info, trans, source_space, montage, spacing_mm):
 
 def _labels(root, head_from_mri):
     """Voxel centres (head coordinates, m) of every label of :data:`LABELS`, and voxel edge."""
-    import nibabel
+    from nibabel.freesurfer.mghformat import MGHImage
 
-    image = nibabel.load(root / TESTING_FILES["aseg"])
+    image = MGHImage.from_filename(root / TESTING_FILES["aseg"])
     volume = np.asarray(image.dataobj)
     vox_to_mri = image.header.get_vox2ras_tkr()  # voxel -> MRI (surface RAS), mm
     vox_to_head = head_from_mri @ np.diag([1e-3, 1e-3, 1e-3, 1.0]) @ vox_to_mri

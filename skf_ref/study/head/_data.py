@@ -15,7 +15,9 @@ import hashlib
 import json
 import os
 import sys
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from ..._utils.checks import InputError, InputTypeError, describe
 
@@ -50,7 +52,7 @@ SENSOR_FILES = {
 CACHE_ENV = "SKF_REF_CACHE_DIR"
 
 
-def find_testing_data(path=None):
+def find_testing_data(path: str | os.PathLike | None = None) -> Path | None:
     """The root of MNE's testing dataset, or None where it is not present.
 
     Parameters
@@ -85,11 +87,11 @@ def find_testing_data(path=None):
     return root.resolve()
 
 
-def _missing(root):
+def _missing(root: Path) -> list[str]:
     return [name for name in TESTING_FILES.values() if not (root / name).is_file()]
 
 
-def _mne_lookup():
+def _mne_lookup() -> Path | None:
     import mne
 
     try:
@@ -102,7 +104,7 @@ def _mne_lookup():
     return found
 
 
-def cache_dir(path=None):
+def cache_dir(path: str | os.PathLike | None = None) -> Path:
     """The folder the realistic head's forward models are cached in.
 
     Parameters
@@ -115,7 +117,7 @@ def cache_dir(path=None):
     Returns
     -------
     pathlib.Path
-        Not created here.
+        The folder (not created here).
 
     Examples
     --------
@@ -138,7 +140,7 @@ def cache_dir(path=None):
     return Path(base) / "skf_ref"
 
 
-def input_digest(files, parameters):
+def input_digest(files: Mapping[str, str | os.PathLike], parameters: Any) -> str:
     """SHA-256 (hex, 20 characters) of files' contents and JSON-ready parameters.
 
     Parameters
@@ -151,6 +153,7 @@ def input_digest(files, parameters):
     Returns
     -------
     str
+        20 hexadecimal digits.
 
     Examples
     --------

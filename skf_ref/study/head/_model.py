@@ -12,12 +12,17 @@ from __future__ import annotations
 import functools
 import weakref
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..._utils.checks import InputError, check_array
 from ..._utils.extras import require
 from ...method._result import readonly
+
+if TYPE_CHECKING:
+    import mne
 
 require(("mne", "nibabel", "filelock"), "study", "skf_ref's head models")
 
@@ -30,17 +35,33 @@ SOURCE_SPACES = ("volume", "anatomical")
 _SFREQ_IRRELEVANT = 10000.0
 
 
-def apply_affine(affine, points):
-    """``points`` (n, 3) mapped by a 4 x 4 affine (same length unit in and out)."""
-    points = np.asarray(points, dtype=float)
-    return points @ np.asarray(affine)[:3, :3].T + np.asarray(affine)[:3, 3]
+def apply_affine(affine: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
+    """Map points by a 4 x 4 affine (the same length unit in and out).
+
+    Parameters
+    ----------
+    affine : array_like, shape (4, 4)
+        The affine transform.
+    points : array_like, shape (n, 3)
+        The points.
+
+    Returns
+    -------
+    ndarray, shape (n, 3)
+        The mapped points.
+    """
+    xyz = np.asarray(points, dtype=float)
+    matrix = np.asarray(affine, dtype=float)
+    return xyz @ matrix[:3, :3].T + matrix[:3, 3]
 
 
 @dataclass(frozen=True, eq=False)
 class Anatomy:
     """Where MNI coordinates and anatomical labels lie in a head (head coordinates, m).
 
-    Attributes
+    Each parameter is an attribute of the same name.
+
+    Parameters
     ----------
     mni_to_head : ndarray, shape (4, 4)
         Affine from MNI coordinates (m) to head coordinates (m).
@@ -66,21 +87,22 @@ class Anatomy:
     trans : mne.transforms.Transform or None
         Head -> MRI transform of the subject (None for the sphere).
     subject : str or None
+        The subject's name in MNE's subjects folder (None for the sphere).
     """
 
     mni_to_head: np.ndarray = field(repr=False)
     mni_source: str
     grid_transform: np.ndarray = field(repr=False)
     grid_frame: str
-    labels: dict = field(repr=False)
+    labels: dict[str, np.ndarray] = field(repr=False)
     label_voxel_mm: float
-    boundary: tuple | None = field(repr=False)
+    boundary: tuple[np.ndarray, np.ndarray] | None = field(repr=False)
     centre: np.ndarray = field(repr=False)
     radius: float
-    trans: object = field(default=None, repr=False)
+    trans: mne.transforms.Transform | None = field(default=None, repr=False)
     subject: str | None = None
 
-    def place(self, mni_m, label=None):
+    def place(self, mni_m: ArrayLike, label: str | None = None) -> tuple[np.ndarray, float]:
         """Head position (m) of an MNI point, moved into ``label`` if it lies outside it.
 
         Parameters
@@ -112,27 +134,40 @@ class Anatomy:
         nearest = voxels[np.argmin(np.linalg.norm(voxels - position, axis=1))]
         return nearest, float(np.linalg.norm(nearest - position) * 1e3)
 
-    def radial(self, position):
+    def radial(self, position: ArrayLike) -> np.ndarray:
         """Outward unit normal of the brain compartment's boundary nearest ``position``.
 
         For a sphere the direction from its centre; for a BEM the normal of the inner skull
         at its vertex nearest the position.
+
+        Parameters
+        ----------
+        position : array_like, shape (3,)
+            Head coordinates (m).
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            The unit normal.
         """
-        position = np.asarray(position, dtype=float)
+        point = np.asarray(position, dtype=float)
         if self.boundary is None:
-            radial = position - self.centre
+            radial = point - self.centre
             if np.linalg.norm(radial) < 1e-9:
                 raise InputError("the position sits at the sphere centre: no radial direction")
             return radial / np.linalg.norm(radial)
         vertices, normals = self.boundary
-        return normals[np.argmin(np.linalg.norm(vertices - position, axis=1))]
+        return normals[np.argmin(np.linalg.norm(vertices - point, axis=1))]
 
 
 @dataclass(frozen=True, eq=False)
 class HeadModel:
     """An EEG head model: lead field, source positions, conductor and anatomy.
 
-    Attributes
+    Made by :func:`skf_ref.study.head.make_head`; each parameter is an attribute of the same
+    name.
+
+    Parameters
     ----------
     leadfield : ndarray, shape (n_channels, 3 * n_positions)
         Free-orientation lead field in V/(A·m), average referenced (every column has zero
@@ -167,10 +202,10 @@ class HeadModel:
 
     leadfield: np.ndarray = field(repr=False)
     positions: np.ndarray = field(repr=False)
-    info: object = field(repr=False)
-    conductor: object = field(repr=False)
-    src: object = field(repr=False)
-    fwd: object = field(repr=False)
+    info: mne.Info = field(repr=False)
+    conductor: mne.bem.ConductorModel = field(repr=False)
+    src: mne.SourceSpaces | None = field(repr=False)
+    fwd: mne.Forward | None = field(repr=False)
     montage: str = "biosemi64"
     seed: int | None = None
     spacing: float = float("nan")
@@ -180,37 +215,37 @@ class HeadModel:
     noise_cov: np.ndarray | None = field(default=None, repr=False)
 
     @property
-    def n_positions(self):
-        """int : Number of source positions."""
+    def n_positions(self) -> int:
+        """Number of source positions."""
         return self.positions.shape[0]
 
     @property
-    def n_channels(self):
-        """int : Number of EEG channels."""
+    def n_channels(self) -> int:
+        """Number of EEG channels."""
         return self.leadfield.shape[0]
 
     @property
-    def sphere(self):
-        """mne.bem.ConductorModel or None : The sphere model (None for a BEM head)."""
+    def sphere(self) -> mne.bem.ConductorModel | None:
+        """The sphere model (``mne.bem.ConductorModel``; None for a BEM head)."""
         return self.conductor if self.conductor_kind == "sphere" else None
 
     @property
-    def origin(self):
-        """ndarray, shape (3,) : Centre of the brain compartment's sphere, m (fitted for a BEM)."""
+    def origin(self) -> np.ndarray:
+        """Centre of the brain compartment's sphere, shape (3,), m (fitted for a BEM)."""
         if self.anatomy is not None:
             return np.array(self.anatomy.centre, dtype=float)
         return np.array(self.conductor["r0"], dtype=float)
 
     @property
-    def brain_radius(self):
-        """float : Radius (m) of the brain compartment's sphere (fitted for a BEM)."""
+    def brain_radius(self) -> float:
+        """Radius (m) of the brain compartment's sphere (fitted for a BEM)."""
         if self.anatomy is not None:
             return float(self.anatomy.radius)
         return float(min(layer["rad"] for layer in self.conductor["layers"]))
 
     @property
-    def description(self):
-        """str : One line naming the conductor and the source space."""
+    def description(self) -> str:
+        """One line naming the conductor and the source space."""
         if self.conductor_kind == "sphere":
             conductor = f"{len(self.conductor['layers'])}-shell sphere"
         else:
@@ -218,11 +253,24 @@ class HeadModel:
         space = {"volume": "volume grid", "anatomical": "cortex + thalamus"}[self.source_space]
         return f"{conductor}, {space} ({self.n_positions} positions, {self.montage})"
 
-    def radial(self, position):
-        """Outward unit normal of the brain compartment nearest ``position`` (head coords, m)."""
+    def radial(self, position: ArrayLike) -> np.ndarray:
+        """Outward unit normal of the brain compartment nearest ``position``.
+
+        Parameters
+        ----------
+        position : array_like, shape (3,)
+            Head coordinates (m).
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            The unit normal (:meth:`Anatomy.radial`).
+        """
+        if self.anatomy is None:
+            raise InputError("the head has no anatomy: no brain compartment to be radial to")
         return self.anatomy.radial(position)
 
-    def dipole_gain(self, positions, orientations):
+    def dipole_gain(self, positions: ArrayLike, orientations: ArrayLike) -> np.ndarray:
         """Average-referenced gain of fixed dipoles at arbitrary positions, (n_channels, n).
 
         MNE's forward computation with this head's conductor and sensors, in float64, at the
@@ -239,20 +287,23 @@ class HeadModel:
         Returns
         -------
         gain : ndarray, shape (n_channels, n)
+            Read-only; its columns have zero channel mean.
         """
-        positions = check_array("positions", positions, ("n", 3))
-        orientations = check_array("orientations", orientations, (positions.shape[0], 3))
-        key = (positions.tobytes(), orientations.tobytes())
+        points = check_array("positions", positions, ("n", 3))
+        directions = check_array("orientations", orientations, (points.shape[0], 3))
+        key = (points.tobytes(), directions.tobytes())
         cache = _GAINS.setdefault(self, {})
         if key not in cache:
-            cache[key] = readonly(_dipole_gain(self, positions, orientations))
+            cache[key] = readonly(_dipole_gain(self, points, directions))
         return cache[key]
 
 
-_GAINS = weakref.WeakKeyDictionary()
+_GAINS: weakref.WeakKeyDictionary[HeadModel, dict[tuple[bytes, bytes], np.ndarray]] = (
+    weakref.WeakKeyDictionary()
+)
 
 
-def _dipole_gain(head, positions, orientations):
+def _dipole_gain(head: HeadModel, positions: np.ndarray, orientations: np.ndarray) -> np.ndarray:
     import mne
 
     n = len(positions)
@@ -278,8 +329,21 @@ def _dipole_gain(head, positions, orientations):
 
 
 @functools.lru_cache(maxsize=8)
-def sensors(montage):
-    """Info (with average-reference projection) and fitted sphere for a built-in montage."""
+def sensors(montage: str) -> tuple[mne.Info, mne.bem.ConductorModel]:
+    """Info (with average-reference projection) and fitted sphere for a built-in montage.
+
+    Parameters
+    ----------
+    montage : str
+        An MNE built-in montage (``mne.channels.make_standard_montage``).
+
+    Returns
+    -------
+    info : mne.Info
+        Its EEG channels, with an (inactive) average-reference projection.
+    sphere : mne.bem.ConductorModel
+        MNE's sphere model fitted to the electrodes.
+    """
     import mne
 
     digmontage = mne.channels.make_standard_montage(montage)
@@ -290,8 +354,19 @@ def sensors(montage):
     return info, sphere
 
 
-def with_average_reference(info):
-    """``info`` with an (inactive) average-reference projection added."""
+def with_average_reference(info: mne.Info) -> mne.Info:
+    """Add an (inactive) average-reference projection to a measurement info.
+
+    Parameters
+    ----------
+    info : mne.Info
+        EEG channels.
+
+    Returns
+    -------
+    mne.Info
+        A copy of ``info`` with the projection.
+    """
     import mne
 
     raw = mne.io.RawArray(np.zeros((len(info.ch_names), 1)), info, verbose=False)
@@ -299,8 +374,23 @@ def with_average_reference(info):
     return raw.info
 
 
-def finish_forward(fwd, n_channels):
-    """The free-orientation gain of an MNE forward, checked, and its average reference."""
+def finish_forward(fwd: mne.Forward, n_channels: int) -> tuple[mne.Forward, np.ndarray]:
+    """The free-orientation gain of an MNE forward, checked, and its average reference.
+
+    Parameters
+    ----------
+    fwd : mne.Forward
+        As MNE computed it.
+    n_channels : int
+        The EEG channels it must have.
+
+    Returns
+    -------
+    fwd : mne.Forward
+        In free orientation, x, y, z per position.
+    gain : ndarray, shape (n_channels, 3 * n_positions)
+        Its gain, average referenced, read-only.
+    """
     import mne
 
     fwd = mne.convert_forward_solution(fwd, surf_ori=False, force_fixed=False, verbose=False)

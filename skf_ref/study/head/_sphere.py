@@ -38,13 +38,18 @@ from __future__ import annotations
 
 import functools
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..._utils.checks import InputError, check_int, check_real
 from ...method._result import readonly
 from ..sizes import DEFAULT_POSITIONS
 from ._model import Anatomy, HeadModel, apply_affine, finish_forward, sensors
+
+if TYPE_CHECKING:
+    import mne
 
 __all__ = [
     "MINDIST_MM",
@@ -80,7 +85,9 @@ THALAMUS_MNI_MM = ((-12.0, -19.0, 7.0), (12.0, -19.0, 7.0))
 THALAMUS_RADIUS_MM = 12.4
 
 
-def make_head_model(n_positions=DEFAULT_POSITIONS, montage="biosemi64", seed=None):
+def make_head_model(
+    n_positions: int = DEFAULT_POSITIONS, montage: str = "biosemi64", seed: int | None = None
+) -> HeadModel:
     """Build the spherical EEG head model with a grid of about `n_positions` positions.
 
     Parameters
@@ -107,16 +114,18 @@ def make_head_model(n_positions=DEFAULT_POSITIONS, montage="biosemi64", seed=Non
     >>> head.leadfield.shape == (64, 3 * head.n_positions)
     True
     """
-    n_positions = check_int("n_positions", n_positions, minimum=MIN_POSITIONS)
+    count = check_int("n_positions", n_positions, minimum=MIN_POSITIONS)
     check_montage(montage)
-    if seed is not None:
-        seed = check_int("seed", seed, minimum=0)
-    return _fresh(_build_head(n_positions, montage, seed))
+    offset_seed = None if seed is None else check_int("seed", seed, minimum=0)
+    return _fresh(_build_head(count, montage, offset_seed))
 
 
 def make_sphere_head(
-    source_space="volume", n_positions=DEFAULT_POSITIONS, montage="biosemi64", spacing_mm=None
-):
+    source_space: str = "volume",
+    n_positions: int = DEFAULT_POSITIONS,
+    montage: str = "biosemi64",
+    spacing_mm: float | None = None,
+) -> HeadModel:
     """The sphere head with either source space (see the module docstring).
 
     Parameters
@@ -126,37 +135,56 @@ def make_sphere_head(
         sphere's cortex and thalami on a lattice of ``spacing_mm`` (``n_positions`` is not
         used).
     n_positions : int
+        Requested grid positions of the volume grid (:func:`make_head_model`).
     montage : str
+        Name of an MNE built-in montage.
     spacing_mm : float or None
         The anatomical lattice's spacing; None: :data:`SPHERE_ANATOMICAL_SPACING_MM`.
 
     Returns
     -------
     head : HeadModel
+        Arrays read-only and shared between calls with equal arguments; fresh MNE objects.
     """
     if source_space == "volume":
         return make_head_model(n_positions, montage)
     if source_space != "anatomical":
         raise InputError(f"source_space must be 'volume' or 'anatomical', got {source_space!r}")
-    spacing_mm = SPHERE_ANATOMICAL_SPACING_MM if spacing_mm is None else spacing_mm
-    spacing_mm = check_real("spacing_mm", spacing_mm, minimum=1.0, maximum=20.0)
-    return _fresh(_build_anatomical(check_montage(montage), spacing_mm))
+    spacing = SPHERE_ANATOMICAL_SPACING_MM if spacing_mm is None else spacing_mm
+    spacing = check_real("spacing_mm", spacing, minimum=1.0, maximum=20.0)
+    return _fresh(_build_anatomical(check_montage(montage), spacing))
 
 
-def _fresh(cached):
+def _fresh(cached: HeadModel) -> HeadModel:
     import copy
 
     return replace(
         cached,
         info=cached.info.copy(),
         conductor=copy.deepcopy(cached.conductor),
-        src=cached.src.copy(),
-        fwd=cached.fwd.copy(),
+        src=None if cached.src is None else cached.src.copy(),
+        fwd=None if cached.fwd is None else cached.fwd.copy(),
     )
 
 
-def check_montage(montage):
-    """``montage`` if it names an MNE built-in montage, else an :class:`~skf_ref.InputError`."""
+def check_montage(montage: str) -> str:
+    """Check that ``montage`` names an MNE built-in montage.
+
+    Parameters
+    ----------
+    montage : str
+        The name (``mne.channels.get_builtin_montages()``).
+
+    Returns
+    -------
+    str
+        ``montage``.
+
+    Raises
+    ------
+    skf_ref.InputError
+        If it is not a built-in montage's name.
+    """
     if not isinstance(montage, str) or montage not in _builtin_montages():
         raise InputError(
             f"montage must be the name of an MNE built-in montage such as 'biosemi64', "
@@ -166,31 +194,51 @@ def check_montage(montage):
     return montage
 
 
-def grid_size(n_positions=DEFAULT_POSITIONS, seed=None):
+def grid_size(n_positions: int = DEFAULT_POSITIONS, seed: int | None = None) -> int:
     """The number of positions ``make_head_model(n_positions, seed=seed)`` holds, cheaply.
 
     The lattice count nearest to the request (see the module docstring); no forward model
     is computed.
+
+    Parameters
+    ----------
+    n_positions : int
+        Requested number of grid positions.
+    seed : int or None
+        The grid's offset seed (:func:`make_head_model`).
+
+    Returns
+    -------
+    int
+        The number of positions of that grid.
 
     Examples
     --------
     >>> grid_size(3000)
     3016
     """
-    n_positions = check_int("n_positions", n_positions, minimum=MIN_POSITIONS)
-    return len(_grid_cells(n_positions, _offset(seed))[0])
+    count = check_int("n_positions", n_positions, minimum=MIN_POSITIONS)
+    return len(_grid_cells(count, _offset(seed))[0])
 
 
-def required_memory(n_positions=DEFAULT_POSITIONS, montage="biosemi64"):
+def required_memory(n_positions: int = DEFAULT_POSITIONS, montage: str = "biosemi64") -> int:
     """Bytes that building ``make_head_model(n_positions, montage)`` needs, about.
 
     MNE's forward computation peaked at 10-15 times the size of the lead field it returns
     (3000 and 12 000 positions, biosemi64, measured with the peak resident size); this
     allows 16 times.
 
+    Parameters
+    ----------
+    n_positions : int
+        Requested number of grid positions.
+    montage : str
+        Name of an MNE built-in montage.
+
     Returns
     -------
     int
+        Bytes.
 
     Examples
     --------
@@ -198,21 +246,37 @@ def required_memory(n_positions=DEFAULT_POSITIONS, montage="biosemi64"):
     70.3...
     """
     n_channels = len(sensors(check_montage(montage))[0]["ch_names"])
-    n_positions = check_int("n_positions", n_positions, minimum=MIN_POSITIONS)
-    return 16 * 8 * n_channels * 3 * n_positions  # the grid holds n_positions within ~1 %
+    count = check_int("n_positions", n_positions, minimum=MIN_POSITIONS)
+    return 16 * 8 * n_channels * 3 * count  # the grid holds n_positions within ~1 %
 
 
-def check_size(n_positions, montage="biosemi64", *, extra=0, name="n_positions"):
+def check_size(
+    n_positions: int, montage: str = "biosemi64", *, extra: int = 0, name: str = "n_positions"
+) -> None:
     """Refuse, before any work, a head model (plus ``extra`` bytes) that does not fit.
 
-    Raises ``MemoryError`` naming ``name`` (a parameter or a command-line flag).
+    Parameters
+    ----------
+    n_positions : int
+        Requested number of grid positions.
+    montage : str
+        Name of an MNE built-in montage.
+    extra : int
+        Bytes needed besides the head model's.
+    name : str
+        What to name in the error: a parameter or a command-line flag.
+
+    Raises
+    ------
+    MemoryError
+        If the memory available does not hold it.
     """
     from ..._utils import memory
 
     memory.require(required_memory(n_positions, montage) + extra, f"{name} {n_positions}")
 
 
-def _offset(seed):
+def _offset(seed: int | None) -> NDArray[np.float64]:
     """The grid's offset within a cell: the centre, or drawn from the seed."""
     if seed is None:
         return np.full(3, 0.5)
@@ -226,7 +290,9 @@ def _builtin_montages():
     return frozenset(mne.channels.get_builtin_montages())
 
 
-def _grid_cells(n_positions, offset):
+def _grid_cells(
+    n_positions: int, offset: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], float]:
     """Lattice points ``k + offset`` (in cells) of the ball holding ~n_positions of them.
 
     Returns the points, shape (n, 3), and the ball radius in cells, midway between the
@@ -242,12 +308,17 @@ def _grid_cells(n_positions, offset):
     return cells[np.linalg.norm(cells, axis=1) <= radius], radius
 
 
-def template_mni_to_head():
+def template_mni_to_head() -> NDArray[np.float64]:
     """Affine (4 x 4, m -> m) from MNI coordinates to the template's head frame.
 
     MNE's fsaverage fiducials (``mne/data/fsaverage/fsaverage-fiducials.fif``, in fsaverage's
     MRI coordinates, which are MNI coordinates) define the head frame as MNE does for any
     subject (:func:`mne.transforms.get_ras_to_neuromag_trans`).
+
+    Returns
+    -------
+    ndarray, shape (4, 4)
+        The affine: head = A[:3, :3] @ mni + A[:3, 3], both in metres.
 
     Examples
     --------
@@ -326,12 +397,15 @@ def _build_head(n_positions, montage, seed):
     return _sphere_head(positions, info, sphere, montage, seed, spacing, "volume")
 
 
-def anatomical_positions(sphere, floor, spacing_mm=SPHERE_ANATOMICAL_SPACING_MM):
+def anatomical_positions(
+    sphere: mne.bem.ConductorModel, floor: float, spacing_mm: float = SPHERE_ANATOMICAL_SPACING_MM
+) -> NDArray[np.float64]:
     """The sphere's cortex + thalamus positions (m, head coordinates), cortex first.
 
     Parameters
     ----------
     sphere : mne.bem.ConductorModel
+        MNE's sphere model.
     floor : float
         Height (m, head coordinates) below which the cortex has no positions.
     spacing_mm : float
@@ -340,6 +414,7 @@ def anatomical_positions(sphere, floor, spacing_mm=SPHERE_ANATOMICAL_SPACING_MM)
     Returns
     -------
     positions : ndarray, shape (n, 3)
+        The cortex's positions, then the thalami's.
     """
     origin = np.asarray(sphere["r0"], dtype=float)
     brain = min(layer["rad"] for layer in sphere["layers"])

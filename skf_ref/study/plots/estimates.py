@@ -2,16 +2,33 @@
 
 from __future__ import annotations
 
+import os
+from typing import TYPE_CHECKING, cast
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..._utils.checks import InputError, check_array, check_int
 from ..regions import DYNAMIC_RANGE_DB, check_amplitude
 from .style import AXIS_LABELS, VIEWS, figure, finish
 
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.figure import Figure
+
+    from ...method._tuning import TuneResult
+
 __all__ = ["plot_estimate", "plot_landscape"]
 
 
-def plot_estimate(amplitude, times, positions=None, n_strongest=5, title=None, path=None):
+def plot_estimate(
+    amplitude: ArrayLike,
+    times: ArrayLike,
+    positions: ArrayLike | None = None,
+    n_strongest: int = 5,
+    title: str | None = None,
+    path: str | os.PathLike | None = None,
+) -> Figure:
     """An estimate without ground truth: the strongest positions over time, and projections.
 
     Left: the time courses of the ``n_strongest`` positions (largest maximum over time).
@@ -29,25 +46,29 @@ def plot_estimate(amplitude, times, positions=None, n_strongest=5, title=None, p
     positions : ndarray, shape (n_positions, 3), optional
         Metres, head coordinates.
     n_strongest : int
+        How many of the strongest positions to draw.
     title : str, optional
+        The figure's title; None: none.
     path : str or path-like, optional
+        Where to save the figure (its format from the suffix); None: not saved.
 
     Returns
     -------
     fig : matplotlib.figure.Figure
+        The figure (saved to ``path`` if given).
     """
 
     times_ms = np.asarray(times, dtype=float) * 1e3
-    amplitude = check_amplitude(amplitude, len(amplitude))
+    amplitude = check_amplitude(amplitude, "n_positions")
     if amplitude.shape[1] != times_ms.size:
         raise InputError(
             f"times must have shape ({amplitude.shape[1]},) like amplitude's columns, got "
             f"{times_ms.shape}"
         )
-    n_strongest = check_int("n_strongest", n_strongest, minimum=1)
+    count = check_int("n_strongest", n_strongest, minimum=1)
     fig = figure(12.0 if positions is not None else 5.0, 3.4)
     axes = fig.subplots(1, 4 if positions is not None else 1, squeeze=False)[0]
-    strongest = np.argsort(amplitude.max(axis=1))[::-1][:n_strongest]
+    strongest = np.argsort(amplitude.max(axis=1))[::-1][:count]
     for index in strongest:
         axes[0].plot(times_ms, amplitude[index], lw=1.4, label=f"position {index}")
     axes[0].set_xlabel("time (ms)")
@@ -55,15 +76,15 @@ def plot_estimate(amplitude, times, positions=None, n_strongest=5, title=None, p
     axes[0].legend(fontsize="x-small")
     axes[0].set_title(f"{len(strongest)} strongest positions")
     if positions is not None:
-        positions = check_array("positions", positions, (len(amplitude), 3)) * 1e3
+        points = check_array("positions", positions, (len(amplitude), 3)) * 1e3
         k = int(np.argmax(amplitude.max(axis=0)))
         with np.errstate(divide="ignore"):
             db = 20 * np.log10(amplitude[:, k] / amplitude[:, k].max())
         order = np.argsort(db)
         for ax, (name, _, horiz, vert) in zip(axes[1:], VIEWS, strict=True):
             dots = ax.scatter(
-                positions[order, horiz],
-                positions[order, vert],
+                points[order, horiz],
+                points[order, vert],
                 c=db[order],
                 cmap="Blues",
                 vmin=-DYNAMIC_RANGE_DB,
@@ -85,7 +106,9 @@ def plot_estimate(amplitude, times, positions=None, n_strongest=5, title=None, p
 _LANDSCAPE_RANGE = 100.0
 
 
-def plot_landscape(result, path=None, title=None):
+def plot_landscape(
+    result: TuneResult, path: str | os.PathLike | None = None, title: str | None = None
+) -> Figure:
     """The marginal likelihood over (EP-SNR, PM-SNR), with the chosen priors marked.
 
     Parameters
@@ -93,7 +116,9 @@ def plot_landscape(result, path=None, title=None):
     result : skf_ref.method.TuneResult
         Its ``landscape`` (the coarse grid) and chosen ``pm_snr_db``, ``ep_snr_db``.
     path : str or path-like, optional
+        Where to save the figure (its format from the suffix); None: not saved.
     title : str, optional
+        The figure's title; None: none.
 
     Returns
     -------
@@ -101,7 +126,8 @@ def plot_landscape(result, path=None, title=None):
         A heat map of ``log p(Y) - max log p(Y)`` over the grid (a curve when one SNR was
         fixed) and a star at the chosen point.
     """
-    grid = result.landscape.pivot(index="pm_snr_db", columns="ep_snr_db", values="log_likelihood")
+    landscape = cast("pd.DataFrame", result.landscape)
+    grid = landscape.pivot(index="pm_snr_db", columns="ep_snr_db", values="log_likelihood")
     relative = grid.to_numpy() - result.log_likelihood
     fig = figure(5.2, 4.0)
     ax = fig.add_subplot()

@@ -2,16 +2,23 @@
 
 from __future__ import annotations
 
+import os
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
 from ..._utils.checks import InputError, check_instance, check_real
 from ..regions import DYNAMIC_RANGE_DB, as_amplitude
 from .style import AXIS_LABELS, COLOURS, LABELS, VIEWS, figure, finish
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
 __all__ = ["plot_average_reconstruction", "plot_comparison"]
 
 
-def _grid_frame(head):
+def _grid_frame(head: Any) -> tuple[np.ndarray, str]:
     """Affine from head coordinates to the frame the grid is axis aligned in, and its name."""
     anatomy = getattr(head, "anatomy", None)
     if anatomy is None:
@@ -19,12 +26,12 @@ def _grid_frame(head):
     return np.asarray(anatomy.grid_transform, dtype=float), anatomy.grid_frame
 
 
-def _in_frame(affine, points):
-    points = np.asarray(points, dtype=float)
-    return points @ affine[:3, :3].T + affine[:3, 3]
+def _in_frame(affine: np.ndarray, points: Any) -> np.ndarray:
+    xyz = np.asarray(points, dtype=float)
+    return xyz @ affine[:3, :3].T + affine[:3, 3]
 
 
-def _lattice(head):
+def _lattice(head: Any) -> tuple[np.ndarray, float]:
     """Integer grid indices (n_positions, 3) of the positions and the spacing (m)."""
     positions = _in_frame(_grid_frame(head)[0], head.positions)
     spacing = getattr(head, "spacing", None)
@@ -39,14 +46,14 @@ def _lattice(head):
 
 
 def plot_average_reconstruction(
-    reconstruction,
-    head,
-    truth,
-    times_ms=(1.5, 2.5),
-    dynamic_range_db=DYNAMIC_RANGE_DB,
-    title=None,
-    path=None,
-):
+    reconstruction: Any,
+    head: Any,
+    truth: Any,
+    times_ms: Sequence[float] = (1.5, 2.5),
+    dynamic_range_db: float = DYNAMIC_RANGE_DB,
+    title: str | None = None,
+    path: str | os.PathLike | None = None,
+) -> Figure:
     """Maximum-intensity projections of the amplitude at given times, in dB re. the max.
 
     One row per time, columns sagittal (y-z), coronal (x-z) and axial (x-y) maximum-
@@ -65,16 +72,20 @@ def plot_average_reconstruction(
     head : HeadModel
         Its positions must form a regular cubic grid.
     truth : Truth
+        The exact sources (:class:`skf_ref.study.scenario.Truth`).
     times_ms : sequence of float
         Times to show, in ms; each uses the nearest sample.
     dynamic_range_db : float
         Colour range in dB below each time's maximum.
     title : str, optional
+        The figure's title; None: none.
     path : str or path-like, optional
+        Where to save the figure (its format from the suffix); None: not saved.
 
     Returns
     -------
     fig : matplotlib.figure.Figure
+        The figure (saved to ``path`` if given).
     """
     positions = np.asarray(head.positions, dtype=float)
     amplitude = as_amplitude(reconstruction, positions.shape[0])
@@ -84,25 +95,25 @@ def plot_average_reconstruction(
             f"reconstruction amplitude must have shape (n_positions, n_times) = "
             f"({positions.shape[0]}, {times.size}), got shape {amplitude.shape}"
         )
-    times_ms = np.atleast_1d(np.asarray(times_ms, dtype=float))
+    shown_ms = np.atleast_1d(np.asarray(times_ms, dtype=float))
     half_step = 0.5 * (times[-1] - times[0]) / max(times.size - 1, 1) * 1e3
     if (
-        times_ms.ndim != 1
-        or not times_ms.size
-        or (np.abs(times_ms[:, None] - times[None, :] * 1e3).min(axis=1) > half_step + 1e-9).any()
+        shown_ms.ndim != 1
+        or not shown_ms.size
+        or (np.abs(shown_ms[:, None] - times[None, :] * 1e3).min(axis=1) > half_step + 1e-9).any()
     ):
         raise InputError(
             f"times_ms must be times within {times[0] * 1e3:g}..{times[-1] * 1e3:g} ms, "
-            f"got {times_ms.tolist()}"
+            f"got {shown_ms.tolist()}"
         )
-    dynamic_range_db = check_real("dynamic_range_db", dynamic_range_db, positive=True)
+    dynamic_range = check_real("dynamic_range_db", dynamic_range_db, positive=True)
     grid = _Projections(head, truth)
-    fig = figure(9.0, 2.9 * times_ms.size + 0.5)
-    axes = fig.subplots(times_ms.size, 3, squeeze=False)
-    for row, t_ms in enumerate(times_ms):
+    fig = figure(9.0, 2.9 * shown_ms.size + 0.5)
+    axes = fig.subplots(shown_ms.size, 3, squeeze=False)
+    for row, t_ms in enumerate(shown_ms):
         k = int(np.abs(times * 1e3 - t_ms).argmin())
         for col, view in enumerate(VIEWS):
-            image = grid.draw(axes[row, col], amplitude[:, k], view, dynamic_range_db)
+            image = grid.draw(axes[row, col], amplitude[:, k], view, dynamic_range)
             axes[row, col].set_title(f"{view[0]} MIP, {times[k] * 1e3:g} ms")
     fig.colorbar(image, ax=axes, label="dB re. maximum at that time", extend="min", shrink=0.8)
     handles, labels = axes[0, 0].get_legend_handles_labels()
@@ -115,7 +126,7 @@ def plot_average_reconstruction(
 class _Projections:
     """Maximum-intensity projections of amplitudes on a head's grid, with the true sources."""
 
-    def __init__(self, head, truth, hollow=()):
+    def __init__(self, head: Any, truth: Any, hollow: Sequence[int] = ()) -> None:
         import matplotlib as mpl
 
         self.index, self.spacing = _lattice(head)
@@ -130,7 +141,9 @@ class _Projections:
         cmap = mpl.colors.ListedColormap(cmap(np.linspace(0.3, 1.0, 256)))
         self.cmap = cmap.with_extremes(under="0.85", bad="white")
 
-    def draw(self, ax, a, view, dynamic_range_db):
+    def draw(
+        self, ax: Any, a: np.ndarray, view: tuple[str, int, int, int], dynamic_range_db: float
+    ) -> Any:
         """One MIP of the amplitudes ``a`` (n_positions,) in dB re. their maximum."""
         name, away, horiz, vert = view
         with np.errstate(divide="ignore"):
@@ -171,8 +184,15 @@ class _Projections:
 
 
 def plot_comparison(
-    estimates, head, truth, absent=None, time_ms=1.5, view="coronal", title=None, path=None
-):
+    estimates: Mapping[tuple[str, str], Any],
+    head: Any,
+    truth: Any,
+    absent: Mapping[str, Sequence[str]] | None = None,
+    time_ms: float = 1.5,
+    view: str = "coronal",
+    title: str | None = None,
+    path: str | os.PathLike | None = None,
+) -> Figure:
     """Methods side by side, each with a source present and absent: one MIP a panel.
 
     A grid of panels, one row per data set (e.g. both sources, and the deep source left
@@ -191,18 +211,23 @@ def plot_comparison(
     head : HeadModel
         Its positions must form a regular cubic grid.
     truth : Truth
+        The exact sources (:class:`skf_ref.study.scenario.Truth`).
     absent : dict, optional
         ``{data: names}``: the sources (``"deep"``, ``"superficial"``) left out of a data
         set; drawn faint, and a deep detection there is marked as false (red).
     time_ms : float
         Time shown (nearest sample); 1.5 ms is the deep source's peak.
     view : {"sagittal", "coronal", "axial"}
+        The projection.
     title : str, optional
+        The figure's title; None: none.
     path : str or path-like, optional
+        Where to save the figure (its format from the suffix); None: not saved.
 
     Returns
     -------
     fig : matplotlib.figure.Figure
+        The figure (saved to ``path`` if given).
     """
     from ..._utils.checks import check_choice
     from ..regions import region_db
@@ -212,7 +237,7 @@ def plot_comparison(
         raise InputError("estimates must be a non-empty dict {(method, data): amplitude}")
     check_choice("view", view, [name for name, *_ in VIEWS])
     absent = {} if absent is None else check_instance("absent", absent, dict, "a dict")
-    view = next(v for v in VIEWS if v[0] == view)
+    projection = next(v for v in VIEWS if v[0] == view)
     methods = list(dict.fromkeys(method for method, _ in estimates))
     rows = list(dict.fromkeys(data for _, data in estimates))
     times = np.asarray(truth.times, dtype=float)
@@ -229,7 +254,7 @@ def plot_comparison(
             left_out = absent.get(data, ())
             hollow = [i for i, name in enumerate(LABELS) if name in left_out]
             image = _Projections(head, truth, hollow).draw(
-                ax, amplitude[:, k], view, DYNAMIC_RANGE_DB
+                ax, amplitude[:, k], projection, DYNAMIC_RANGE_DB
             )
             level = region_db(amplitude, head.positions, truth.positions[0], k)
             detected = level >= -DYNAMIC_RANGE_DB
@@ -246,5 +271,5 @@ def plot_comparison(
     handles, labels = axes[0, 0].get_legend_handles_labels()
     labels = [f"{label}; faint: left out of the data" for label in labels]
     fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize="small")
-    fig.suptitle(title or f"{view[0]} MIP at {times[k] * 1e3:g} ms")
+    fig.suptitle(title or f"{projection[0]} MIP at {times[k] * 1e3:g} ms")
     return finish(fig, path)

@@ -1,5 +1,11 @@
 """What every figure of the study shares: its colours, labels, size and how it is saved."""
 
+import os
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
 __all__ = ["AXIS_LABELS", "COLOURS", "DPI", "LABELS", "VIEWS", "figure", "finish"]
 
 COLOURS = ("tab:green", "tab:red")  # deep, superficial (the paper's colours)
@@ -7,18 +13,47 @@ LABELS = ("deep", "superficial")
 DPI = 150
 
 
-def figure(width, height):
-    """A matplotlib Figure (no pyplot, constrained layout) of the given size in inches."""
+def figure(width: float, height: float) -> "Figure":
+    """A matplotlib Figure (no pyplot, constrained layout) of the given size.
+
+    Parameters
+    ----------
+    width, height : float
+        In inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Not registered with pyplot: nothing to close.
+    """
     from matplotlib.figure import Figure
 
     return Figure(figsize=(width, height), layout="constrained")
 
 
-def finish(fig, path):
-    """Save ``fig`` to ``path`` if given (no software stamp: the same figure, the same
-    bytes), and return it."""
+def finish(fig: "Figure", path: str | os.PathLike | None) -> "Figure":
+    """Save a figure if a path is given, and return it.
+
+    The file holds no software stamp (the same figure, the same bytes), and appears whole
+    or not at all (written to a temporary file, then renamed).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : path-like or None
+        Where to save it (its format from the suffix); None: not saved.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        ``fig``.
+    """
     if path is not None:  # no software version in the file: the same figure, the same bytes
-        fig.savefig(path, dpi=DPI, metadata={"Software": None})
+        from ..._utils.atomic_files import atomic_path
+
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=DPI, metadata={"Software": None})
     return fig
 
 

@@ -2,16 +2,24 @@
 
 from __future__ import annotations
 
+import os
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any, cast
+
 import numpy as np
 
 from ..._utils.checks import InputError, check_instance
 from ..regions import as_amplitude, region_time_course
 from .style import COLOURS, LABELS, figure, finish
 
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
 __all__ = ["plot_exponent_comparison", "plot_prior_grid", "plot_time_courses"]
 
 
-def _draw_time_courses(ax, reconstruction, head, truth):
+def _draw_time_courses(ax: Axes, reconstruction: Any, head: Any, truth: Any) -> None:
     """Region maxima (solid) and true waveform magnitudes (dashed), each pair normalized."""
     positions = np.asarray(head.positions, dtype=float)
     amplitude = as_amplitude(reconstruction, positions.shape[0])
@@ -36,7 +44,14 @@ def _draw_time_courses(ax, reconstruction, head, truth):
     ax.set_ylabel("normalized amplitude")
 
 
-def plot_time_courses(reconstruction, head, truth, ax=None, title=None, path=None):
+def plot_time_courses(
+    reconstruction: Any,
+    head: Any,
+    truth: Any,
+    ax: Axes | None = None,
+    title: str | None = None,
+    path: str | os.PathLike | None = None,
+) -> Figure:
     """Plot each source region's maximum amplitude over time against the true waveforms.
 
     Solid: the maximum of the amplitude over the region (positions within 15 mm) of the
@@ -49,18 +64,22 @@ def plot_time_courses(reconstruction, head, truth, ax=None, title=None, path=Non
     reconstruction : object with ``amplitude(n_components)``, or ndarray
         Amplitude shape (n_positions, n_times).
     head : HeadModel
+        Its ``positions`` (n_positions, 3), metres.
     truth : Truth
+        The exact sources (:class:`skf_ref.study.scenario.Truth`).
     ax : matplotlib.axes.Axes, optional
         Axes to draw in; a new figure if None.
     title : str, optional
+        The figure's title; None: none.
     path : str or path-like, optional
         Where to save the figure (format from the extension).
 
     Returns
     -------
     fig : matplotlib.figure.Figure
+        The figure (saved to ``path`` if given).
     """
-    fig = figure(5.0, 3.2) if ax is None else ax.figure
+    fig = figure(5.0, 3.2) if ax is None else cast("Figure", ax.figure)
     ax = fig.add_subplot() if ax is None else ax
     _draw_time_courses(ax, reconstruction, head, truth)
     ax.set_ylim(top=1.4)  # room for the legend above the curves
@@ -70,7 +89,15 @@ def plot_time_courses(reconstruction, head, truth, ax=None, title=None, path=Non
     return finish(fig, path)
 
 
-def _panel_grid(panels, head, truth, nrows, ncols, title, path):
+def _panel_grid(
+    panels: Mapping[tuple[int, int], tuple[Any, str]],
+    head: Any,
+    truth: Any,
+    nrows: int,
+    ncols: int,
+    title: str | None,
+    path: str | os.PathLike | None,
+) -> Figure:
     """Time-course panels ``{(row, col): (reconstruction, title)}`` with one shared legend."""
     fig = figure(3.3 * ncols, 2.5 * nrows + 0.6)
     axes = fig.subplots(nrows, ncols, sharex=True, sharey=True, squeeze=False)
@@ -86,7 +113,13 @@ def _panel_grid(panels, head, truth, nrows, ncols, title, path):
     return finish(fig, path)
 
 
-def plot_prior_grid(reconstructions, head, truth, title=None, path=None):
+def plot_prior_grid(
+    reconstructions: Mapping[tuple[float, float], Any],
+    head: Any,
+    truth: Any,
+    title: str | None = None,
+    path: str | os.PathLike | None = None,
+) -> Figure:
     """Time courses over a grid of prior parameters (the paper's 2 x 2 EP/PM figures).
 
     Parameters
@@ -95,14 +128,18 @@ def plot_prior_grid(reconstructions, head, truth, title=None, path=None):
         ``{(ep_snr_db, pm_snr_db): reconstruction}``, a full grid, e.g. over {0, 20}^2.
         Columns: EP-SNR ascending; rows: PM-SNR ascending. Panel titles "EP 0, PM 20".
     head : HeadModel
+        Its ``positions`` (n_positions, 3), metres.
     truth : Truth
+        The exact sources (:class:`skf_ref.study.scenario.Truth`).
     title : str, optional
         Figure title (e.g. the noise level and smoothing).
     path : str or path-like, optional
+        Where to save the figure (its format from the suffix); None: not saved.
 
     Returns
     -------
     fig : matplotlib.figure.Figure
+        The figure (saved to ``path`` if given).
     """
     check_instance("reconstructions", reconstructions, dict, "a dict {(ep, pm): reconstruction}")
     if not reconstructions:
@@ -124,7 +161,13 @@ def plot_prior_grid(reconstructions, head, truth, title=None, path=None):
     return _panel_grid(panels, head, truth, len(pms), len(eps), title, path)
 
 
-def plot_exponent_comparison(reconstructions, head, truth, title=None, path=None):
+def plot_exponent_comparison(
+    reconstructions: Mapping[float, Any],
+    head: Any,
+    truth: Any,
+    title: str | None = None,
+    path: str | os.PathLike | None = None,
+) -> Figure:
     """Time courses side by side, one panel per standardization exponent.
 
     Parameters
@@ -132,13 +175,18 @@ def plot_exponent_comparison(reconstructions, head, truth, title=None, path=None
     reconstructions : dict
         ``{exponent: reconstruction}``; panels in ascending exponent order.
     head : HeadModel
+        Its ``positions`` (n_positions, 3), metres.
     truth : Truth
+        The exact sources (:class:`skf_ref.study.scenario.Truth`).
     title : str, optional
+        The figure's title; None: none.
     path : str or path-like, optional
+        Where to save the figure (its format from the suffix); None: not saved.
 
     Returns
     -------
     fig : matplotlib.figure.Figure
+        The figure (saved to ``path`` if given).
     """
     check_instance("reconstructions", reconstructions, dict, "a dict {exponent: reconstruction}")
     if not reconstructions:

@@ -1,5 +1,8 @@
 """Sweep grids: the axes, the paper's grid, and the check every grid passes before work."""
 
+from collections.abc import Mapping
+from typing import Any
+
 from ..._utils.checks import (
     InputError,
     InputTypeError,
@@ -22,7 +25,7 @@ KEY = ("n_positions", "montage", *AXES)
 #: Largest |dB| of a noise level or prior SNR: 10**(dB/10) stays far from overflow.
 
 
-def paper_grid(seeds=10):
+def paper_grid(seeds: int = 10) -> dict[str, list[Any]]:
     """The paper's grid: 10/20/30 dB; EP, PM in {0, 20}; four exponents; three smoothers.
 
     Parameters
@@ -33,6 +36,7 @@ def paper_grid(seeds=10):
     Returns
     -------
     dict
+        Axis name -> its values (:data:`AXES`), 1440 runs with 10 seeds.
 
     Examples
     --------
@@ -40,18 +44,18 @@ def paper_grid(seeds=10):
     >>> grid["exponent"], grid["smoother"], grid["seed"]
     ([0.5, 1.0, 1.25, 1.5], [None, 'rts-standardized', 'rts-state'], [0, 1])
     """
-    seeds = check_int("seeds", seeds, minimum=0)
+    count = check_int("seeds", seeds, minimum=0)
     return dict(
         snr_db=[10.0, 20.0, 30.0],
         ep_snr_db=[0.0, 20.0],
         pm_snr_db=[0.0, 20.0],
         exponent=[0.5, 1.0, 1.25, 1.5],
         smoother=list(SMOOTHERS),
-        seed=list(range(seeds)),
+        seed=list(range(count)),
     )
 
 
-def check_grid(grid):
+def check_grid(grid: Mapping[str, Any]) -> dict[str, list[Any]]:
     """Validate a grid before any work starts; returns it with normalized values.
 
     Parameters
@@ -62,6 +66,8 @@ def check_grid(grid):
     Returns
     -------
     dict
+        Axis name -> its values, checked and normalized (``"none"`` as None, numbers as
+        float, seeds as int), in the order of :data:`AXES`.
 
     Examples
     --------
@@ -81,10 +87,10 @@ def check_grid(grid):
         )
     out = {}
     for axis in AXES:
-        values = grid[axis]
-        if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
-            values = [values]
-        values = [_check_value(axis, value) for value in values]
+        given = grid[axis]
+        if isinstance(given, (str, bytes)) or not hasattr(given, "__iter__"):
+            given = [given]
+        values = [_check_value(axis, value) for value in given]
         if not values:
             raise InputError(f"grid[{axis!r}] is empty: give at least one value")
         if len(set(values)) != len(values):
@@ -93,7 +99,7 @@ def check_grid(grid):
     return out
 
 
-def _check_value(axis, value):
+def _check_value(axis: str, value: Any) -> Any:
     name = f"grid[{axis!r}] values"
     if axis == "smoother":
         return check_smoother(check_choice(name, value, (*SMOOTHERS, "none")))
@@ -104,13 +110,35 @@ def _check_value(axis, value):
     return check_db(name, value)
 
 
-def smoother_label(smoother):
-    """The smoother as written in a results file: ``"none"`` for None."""
+def smoother_label(smoother: str | None) -> str:
+    """The smoother as written in a results file: ``"none"`` for None.
+
+    Parameters
+    ----------
+    smoother : str or None
+        A smoother of :func:`skf_ref.reconstruct`.
+
+    Returns
+    -------
+    str
+        Its name, or ``"none"``.
+    """
     return "none" if smoother is None else smoother
 
 
-def row_key(row):
-    """The tuple that identifies a run (the :data:`KEY` columns, normalized)."""
+def row_key(row: Mapping[str, Any]) -> tuple[Any, ...]:
+    """The tuple that identifies a run (the :data:`KEY` columns, normalized).
+
+    Parameters
+    ----------
+    row : mapping
+        A results row, with every :data:`KEY` column.
+
+    Returns
+    -------
+    tuple
+        Its :data:`KEY` values: the montage as given, the smoother's label, numbers as float.
+    """
     return tuple(
         smoother_label(row[k]) if k == "smoother" else row[k] if k == "montage" else float(row[k])
         for k in KEY

@@ -16,18 +16,24 @@ fields, an empty or non-numeric key, a run written twice, columns of another pro
 silently.
 """
 
+from __future__ import annotations
+
 import csv
 import io
 import os
 import warnings
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from types import ModuleType
+from typing import Any, Literal
 
 import pandas as pd
 
 from ..._utils.atomic_files import atomic_path
-from ..._utils.checks import InputError
+from ..._utils.checks import InputError, check_path
 from ._grid import KEY, row_key
 
+fcntl: ModuleType | None
 try:
     import fcntl
 except ImportError:  # Windows: the lock file alone
@@ -40,17 +46,17 @@ class TornLineWarning(UserWarning):
     """A results file ended in a torn line (an interrupted write); it was cut off."""
 
 
-def _lock_path(out):
+def _lock_path(out: Path) -> Path:
     """The lock file of the file ``out`` names, wherever symbolic links lead."""
     real = out.resolve()
     return real.with_name(f".{real.name}.lock")
 
 
-def _is_parquet(out):
+def _is_parquet(out: Path) -> bool:
     return out.suffix == ".parquet"
 
 
-def read_results(out):
+def read_results(out: str | os.PathLike) -> pd.DataFrame:
     """The rows already in a results file (none if it does not exist). Never writes.
 
     Parameters
@@ -68,22 +74,22 @@ def read_results(out):
     skf_ref.InputError
         The file is not a results file or is damaged; the message names the file and line.
     """
-    out = Path(out)
-    if not out.exists() or out.stat().st_size == 0:
+    path = Path(out)
+    if not path.exists() or path.stat().st_size == 0:
         return pd.DataFrame()
-    if _is_parquet(out):
+    if _is_parquet(path):
         try:
-            frame = pd.read_parquet(out)
+            frame = pd.read_parquet(path)
         except Exception as err:  # pyarrow raises its own types for unreadable files
-            raise InputError(f"{out} is not a readable Parquet file: {err}") from err
-        return _checked(frame, out, lambda i: f"row {i}")
-    text = _complete_lines(out)
-    _check_fields(text, out)
+            raise InputError(f"{path} is not a readable Parquet file: {err}") from err
+        return _checked(frame, path, lambda i: f"row {i}")
+    text = _complete_lines(path)
+    _check_fields(text, path)
     frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""])
-    return _checked(frame, out, lambda i: f"line {i + 2}")
+    return _checked(frame, path, lambda i: f"line {i + 2}")
 
 
-def _complete_lines(out):
+def _complete_lines(out: Path) -> str:
     data = out.read_bytes()
     data = data[: data.rfind(b"\n") + 1]  # a torn last line is not a row yet
     try:
@@ -94,10 +100,10 @@ def _complete_lines(out):
         ) from err
 
 
-def _check_fields(text, out):
+def _check_fields(text: str, out: Path) -> None:
     rows = csv.reader(io.StringIO(text))
-    header = next(rows, None)
-    missing = [column for column in KEY if column not in (header or [])]
+    header = next(rows, [])
+    missing = [column for column in KEY if column not in header]
     if missing:
         raise InputError(
             f"{out} is not a results file of skf-ref sweep: its header lacks the columns "
@@ -111,13 +117,13 @@ def _check_fields(text, out):
             )
 
 
-def _checked(frame, out, where):
+def _checked(frame: pd.DataFrame, out: Path, where: Callable[[int], str]) -> pd.DataFrame:
     missing = [column for column in KEY if column not in frame.columns]
     if missing:
         raise InputError(
             f"{out} is not a results file of skf-ref sweep: it lacks the columns {missing}"
         )
-    seen = {}
+    seen: dict[tuple, int] = {}
     for i, row in enumerate(frame[list(KEY)].itertuples(index=False)):
         values = dict(zip(KEY, row, strict=True))
         for column, value in values.items():
@@ -153,14 +159,16 @@ class ResultsFile:
         The rows already there when the file was opened.
     """
 
-    def __init__(self, out):
-        self.out = Path(out)
+    def __init__(self, out: str | os.PathLike) -> None:
+        self.out = check_path("out", out)
         if self.out.suffix not in (".csv", ".parquet"):
             raise InputError(f"out must be a .csv or .parquet file name, got {str(self.out)!r}")
         self.existing = pd.DataFrame()
-        self._lock = self._file_lock = None
+        self._lock: Any = None
+        self._file_lock: int | None = None
+        self._columns: list[str] = []
 
-    def __enter__(self):
+    def __enter__(self) -> ResultsFile:
         from filelock import FileLock, Timeout
 
         if _is_parquet(self.out):
@@ -182,17 +190,17 @@ class ResultsFile:
             raise
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> Literal[False]:
         self._release()
         return False
 
-    def _in_use(self):
+    def _in_use(self) -> InputError:
         return InputError(
             f"{self.out} is in use by another sweep (locked): wait for it to finish or write "
             "to another file"
         )
 
-    def _lock_file(self, flags=os.O_RDONLY):
+    def _lock_file(self, flags: int = os.O_RDONLY) -> None:
         """Lock the CSV itself (its inode): shared by every name of it, hard links too."""
         fd = os.open(self.out, flags, 0o644)
         if fcntl is not None:
@@ -203,13 +211,14 @@ class ResultsFile:
                 raise self._in_use() from None
         self._file_lock = fd
 
-    def _release(self):
+    def _release(self) -> None:
         if self._file_lock is not None:
             os.close(self._file_lock)  # releases the flock
             self._file_lock = None
-        self._lock.release()
+        if self._lock is not None:
+            self._lock.release()
 
-    def _cut_torn_line(self):
+    def _cut_torn_line(self) -> None:
         if not self.out.exists():
             return
         data = self.out.read_bytes()
@@ -224,8 +233,14 @@ class ResultsFile:
                 stacklevel=3,
             )
 
-    def add(self, rows):
-        """Append finished runs (dicts with the same keys, in the same order)."""
+    def add(self, rows: Sequence[dict[str, Any]]) -> None:
+        """Append finished runs.
+
+        Parameters
+        ----------
+        rows : sequence of dict
+            One per run, with the same keys in the same order.
+        """
         if _is_parquet(self.out):
             self.existing = pd.concat([self.existing, pd.DataFrame(rows)], ignore_index=True)
             with atomic_path(self.out) as tmp:

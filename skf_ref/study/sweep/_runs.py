@@ -1,14 +1,19 @@
 """Sweep runs: one group of runs on one prepared model, and the sweep over a grid."""
 
+from __future__ import annotations
+
 import ctypes
 import ctypes.util
 import itertools
 import logging
 import math
 import multiprocessing
+import os
 import signal
 import sys
 import warnings
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 from ..._utils.checks import InputError, check_int
 from ..._utils.extras import require
@@ -18,10 +23,20 @@ from ..sizes import DEFAULT_POSITIONS
 from ._grid import AXES, GROUP, check_grid, row_key, smoother_label
 from ._results import ResultsFile, read_results
 
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ...method._result import Reconstruction
+    from ..head import HeadModel
+    from ..scenario import Truth
+
+#: One run of a group: (exponent, smoother, seed).
+Run = tuple[float, str | None, int]
+
 __all__ = ["run_group", "run_on_head", "run_sweep"]
 
 
-def _die_with_parent():
+def _die_with_parent() -> None:
     """In a worker process on Linux: be terminated when the process that started it dies.
 
     A sweep killed with SIGKILL cannot stop its joblib (loky) workers; without this they
@@ -34,7 +49,7 @@ def _die_with_parent():
     libc.prctl(pr_set_pdeathsig, signal.SIGTERM)
 
 
-def _head(n_positions, montage, head):
+def _head(n_positions: int, montage: str, head: Mapping[str, Any] | None) -> HeadModel:
     from ..head import make_head, make_head_model
 
     if head is None:
@@ -43,23 +58,27 @@ def _head(n_positions, montage, head):
 
 
 def run_group(
-    snr_db,
-    ep_snr_db,
-    pm_snr_db,
-    runs,
-    n_positions=DEFAULT_POSITIONS,
-    montage="biosemi64",
-    head=None,
-    data=None,
-):
+    snr_db: float,
+    ep_snr_db: float,
+    pm_snr_db: float,
+    runs: Sequence[Run],
+    n_positions: int = DEFAULT_POSITIONS,
+    montage: str = "biosemi64",
+    head: Mapping[str, Any] | None = None,
+    data: Mapping[str, Any] | None = None,
+) -> list[dict[str, Any]]:
     """All runs that share a noise level and priors, on one prepared spectral model.
 
     Parameters
     ----------
     snr_db, ep_snr_db, pm_snr_db : float
+        The data's peak SNR and the priors' EP-SNR and PM-SNR, dB.
     runs : list of (exponent, smoother, seed)
+        The runs: standardization exponent, smoother (None: none) and noise seed.
     n_positions : int
+        Positions of the sphere's volume grid (without ``head``).
     montage : str
+        Name of an MNE built-in montage.
     head : dict or None
         Keyword arguments of :func:`skf_ref.study.head.make_head` (``conductor``,
         ``source_space``, ``testing_data``, ``cache_dir``...); None: the sphere's volume grid
@@ -78,11 +97,11 @@ def run_group(
     return run_on_head(model, snr_db, ep_snr_db, pm_snr_db, runs, **(data or {}))
 
 
-def _sources_label(sources):
+def _sources_label(sources: Sequence[str]) -> str:
     return "+".join(sources)
 
 
-def _region_values(rec, head, truth):
+def _region_values(rec: Reconstruction, head: HeadModel, truth: Truth) -> dict[str, float]:
     """Raw region maxima (standardized amplitude) at the two peaks, for the controls, and
     the height (m, head coordinates) of the global maximum at each peak."""
     from ..regions import region_time_course
@@ -103,23 +122,26 @@ def _region_values(rec, head, truth):
 
 
 def run_on_head(
-    head,
-    snr_db,
-    ep_snr_db,
-    pm_snr_db,
-    runs,
+    head: HeadModel,
+    snr_db: float,
+    ep_snr_db: float,
+    pm_snr_db: float,
+    runs: Sequence[Run],
     *,
-    sources=("deep", "superficial"),
-    forward="exact",
-    window="hann",
-):
+    sources: Sequence[str] = ("deep", "superficial"),
+    forward: str = "exact",
+    window: str = "hann",
+) -> list[dict[str, Any]]:
     """:func:`run_group` on a given head model (a cropped grid, another montage...).
 
     Parameters
     ----------
     head : skf_ref.study.head.HeadModel
+        The head model.
     snr_db, ep_snr_db, pm_snr_db : float
+        The data's peak SNR and the priors' EP-SNR and PM-SNR, dB.
     runs : list of (exponent, smoother, seed)
+        The runs: standardization exponent, smoother (None: none) and noise seed.
     sources : sequence of str
         Sources active in the data (:func:`skf_ref.study.scenario.simulate`); the metrics always
         refer to both.
@@ -141,7 +163,9 @@ def run_on_head(
     L, T = head.leadfield, len(scenario.times)
     model = None
     rows = []
-    versions = {f"{name}_version": v for name, v in package_versions().items()}
+    versions: dict[str, str | int] = {
+        f"{name}_version": v for name, v in package_versions().items()
+    }
     blas = blas_threads()
     versions["blas"] = " ".join(f"{b['library']}-{b['version']}" for b in blas) or "none"
     versions["blas_threads"] = max((b["threads"] for b in blas), default=1)
@@ -179,7 +203,9 @@ def run_on_head(
     return rows
 
 
-def _check_identity(existing, identity, out):
+def _check_identity(
+    existing: pd.DataFrame, identity: Mapping[str, Any], out: str | os.PathLike
+) -> None:
     """Refuse to add runs of one head or kind of data to a file holding another's."""
     for column, value in identity.items():
         if column in existing and not existing.empty and set(existing[column]) != {value}:
@@ -189,9 +215,15 @@ def _check_identity(existing, identity, out):
             )
 
 
-def _pending(grid, done, n_positions, montage, runs_per_task):
+def _pending(
+    grid: Mapping[str, Sequence[Any]],
+    done: set[tuple[Any, ...]],
+    n_positions: int,
+    montage: str,
+    runs_per_task: int,
+) -> list[tuple[tuple[float, ...], list[Run]]]:
     """Unfinished runs grouped by (snr_db, ep_snr_db, pm_snr_db), in tasks of bounded size."""
-    groups = {}
+    groups: dict[tuple[float, ...], list[Run]] = {}
     for values in itertools.product(*(grid[a] for a in AXES)):
         run = dict(zip(AXES, values, strict=True), n_positions=n_positions, montage=montage)
         if row_key(run) in done:
@@ -207,20 +239,20 @@ def _pending(grid, done, n_positions, montage, runs_per_task):
 
 
 def run_sweep(
-    grid,
-    out,
-    n_jobs=1,
+    grid: Mapping[str, Any],
+    out: str | os.PathLike,
+    n_jobs: int = 1,
     *,
-    n_positions=DEFAULT_POSITIONS,
-    montage="biosemi64",
-    backend=None,
-    verbose=None,
-    progress=None,
-    runs_per_task=24,
-    size_name="n_positions",
-    head=None,
-    data=None,
-):
+    n_positions: int = DEFAULT_POSITIONS,
+    montage: str = "biosemi64",
+    backend: str | None = None,
+    verbose: bool | str | int | None = None,
+    progress: bool | None = None,
+    runs_per_task: int = 24,
+    size_name: str = "n_positions",
+    head: Mapping[str, Any] | None = None,
+    data: Mapping[str, Any] | None = None,
+) -> pd.DataFrame:
     """Run every point of a grid not yet in ``out``, appending one row per run.
 
     Parameters
@@ -230,13 +262,14 @@ def run_sweep(
     out : path-like
         Results file: CSV, or Parquet when the name ends ``.parquet``.
     n_jobs : int
-        joblib workers (-1: all cores).
+        Workers of joblib (-1: all cores).
     n_positions : int
         Source positions requested of the head model; rows record the count it holds
         (:func:`skf_ref.study.head.grid_size`).
     montage : str
+        Name of an MNE built-in montage.
     backend : str, optional
-        joblib backend; None uses the caller's ``joblib.parallel_config`` (default loky).
+        The backend of joblib; None uses the caller's ``joblib.parallel_config`` (default loky).
     verbose : bool or str or int or None
         Show a tqdm progress bar (runs done of the grid) when the ``"skf_ref"`` log shows
         INFO, as MNE's ``verbose``: None keeps the log's level (INFO unless set otherwise),
@@ -277,10 +310,10 @@ def run_sweep(
 
     from ..head import check_montage, check_size, grid_size
 
-    grid = check_grid(grid)
-    runs_per_task = check_int("runs_per_task", runs_per_task, minimum=1)
-    n_jobs = check_int("n_jobs", n_jobs, minimum=None)
-    if n_jobs == 0:
+    axes = check_grid(grid)
+    per_task = check_int("runs_per_task", runs_per_task, minimum=1)
+    workers = check_int("n_jobs", n_jobs, minimum=None)
+    if workers == 0:
         raise InputError("n_jobs must be a positive number of workers or -1 (all cores), got 0")
     check_montage(montage)
     if head is None:
@@ -291,19 +324,19 @@ def run_sweep(
         built = _head(n_positions, montage, head)
         n_actual = built.n_positions
         identity = dict(conductor=built.conductor_kind, source_space=built.source_space)
-    data = dict(data or {})
-    identity["sources"] = _sources_label(data.get("sources", ("deep", "superficial")))
+    shape = dict(data or {})
+    identity["sources"] = _sources_label(shape.get("sources", ("deep", "superficial")))
     with ResultsFile(out) as results:
         _check_identity(results.existing, identity, out)
         done = {row_key(row) for _, row in results.existing.iterrows()}
-        tasks = _pending(grid, done, n_actual, montage, runs_per_task)
-        total = math.prod(len(v) for v in grid.values())
+        tasks = _pending(axes, done, n_actual, montage, per_task)
+        total = math.prod(len(v) for v in axes.values())
         remaining = sum(len(runs) for _, runs in tasks)
         jobs = (
-            delayed(run_group)(*group, runs, n_positions, montage, head, data)
+            delayed(run_group)(*group, runs, n_positions, montage, head, shape)
             for group, runs in tasks
         )
-        parallel = Parallel(n_jobs=n_jobs, backend=backend, return_as="generator_unordered")
+        parallel = Parallel(n_jobs=workers, backend=backend, return_as="generator_unordered")
         bar = tqdm(total=total, initial=total - remaining, disable=not shown, unit="run")
         with bar:
             for rows in parallel(jobs):
