@@ -345,6 +345,8 @@ class TestPaths:
             "method": method,
             "exponent": 0.5,
             "smoother": smoother,
+            "standardize": "column",
+            "n_orient": None,
             "theta0": 1e-16,
             "q": 1e-17,
             "transition": 1.0,

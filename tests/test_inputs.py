@@ -164,7 +164,8 @@ CASES = {
     "unknown smoother": (
         _with("smoother", "rts"),
         ValueError,
-        r"smoother must be one of \[None, 'rts-standardized', 'rts-state', 'none'\], got 'rts'",
+        r"smoother must be one of \[None, 'rts-standardized', 'rts-state', "
+        r"'rts-smoothed-weights', 'none'\], got 'rts'",
     ),
     "smoother True": (_with("smoother", True), ValueError, "smoother must be one of"),
     "unknown method": (

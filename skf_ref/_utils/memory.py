@@ -100,7 +100,7 @@ def covariance_memory(
     ----------
     n_sources, n_times : int
     method : {"dense", "filterpy"}
-    smoother : {None, "rts-standardized", "rts-state"}
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
 
     Returns
     -------
@@ -108,6 +108,8 @@ def covariance_memory(
         ``8 n^2 (k T + 8)``: the dense path stores k = 3 matrices a step (``P_{t|t}``,
         ``P_{t|t-1}`` and its inverse square root); the filterpy path stores 2, and filterpy's
         ``rts_smoother`` copies two sequences and adds its gains (k = 5); 8 working matrices.
+        ``"rts-smoothed-weights"`` adds the prior covariances ``Sigma_t`` (k + 1) and, on the
+        dense path, the smoothed ``P^s_t`` (k + 2).
 
     Examples
     --------
@@ -115,6 +117,8 @@ def covariance_memory(
     0.976...
     """
     per_step = 3 if method == "dense" else 2 if smoother is None else 5
+    if smoother == "rts-smoothed-weights":
+        per_step += 2 if method == "dense" else 1
     return 8 * n_sources**2 * (per_step * n_times + 8)
 
 
@@ -131,7 +135,7 @@ def check_reconstruction(
     Parameters
     ----------
     method : {"spectral", "dense", "filterpy"}
-    smoother : {None, "rts-standardized", "rts-state"}
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
     n_sources, n_channels, n_times : int
         The lead field's columns, its rows (or the whitened data's rank) and the steps.
     memory_limit : float, optional

@@ -175,6 +175,6 @@ def add_skf_options(parser: Any, *, exponent: Any, smoother: Any, smoother_help:
     parser.add_argument(
         "--smoother",
         default=smoother,
-        choices=("none", "rts-standardized", "rts-state"),
+        choices=("none", "rts-standardized", "rts-state", "rts-smoothed-weights"),
         help=smoother_help,
     )

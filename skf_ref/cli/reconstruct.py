@@ -89,6 +89,20 @@ def add_parser(subparsers: Any) -> None:
         "rts-standardized)",
     )
     model.add_argument(
+        "--standardize",
+        default="column",
+        choices=("column", "position"),
+        help="standardize each column of the lead field on its own (the paper's), or each "
+        "source position's orientations as a whole, as sLORETA (docs/model.md section 2)",
+    )
+    model.add_argument(
+        "--n-orient",
+        type=int,
+        choices=(1, 3),
+        help="array route: columns per source position (default: from the lead field's "
+        "positions when it has them); the MNE route takes it from the forward",
+    )
+    model.add_argument(
         "--method",
         default="auto",
         choices=("auto", "spectral", "dense", "filterpy"),
@@ -230,7 +244,10 @@ def _check_stc_format(args: argparse.Namespace) -> None:
 def _settings(args, route, extra):
     from .._utils.provenance import machine
 
-    keys = ("pm_snr_db", "ep_snr_db", "exponent", "smoother", "method", "pick_ori", "meg", "eeg")
+    keys = (
+        *("pm_snr_db", "ep_snr_db", "exponent", "smoother", "standardize", "n_orient"),
+        *("method", "pick_ori", "meg", "eeg"),
+    )
     files = ("forward", "evoked", "condition", "leadfield", "data", "key", "noise_cov")
     return {
         "route": route,
@@ -317,11 +334,17 @@ def _mne_route(args):
         )
     except InputError as err:
         raise _about_noise_cov(args, err) from err
+    if args.n_orient is not None and args.n_orient != operator.n_components:
+        raise InputError(
+            f"argument --n-orient: the forward has {operator.n_components} column(s) per "
+            f"position, got {args.n_orient} (the MNE route takes it from the forward)"
+        )
     stc, rec = apply_skf(
         evoked,
         operator,
         exponent=args.exponent,
         smoother=args.smoother,
+        standardize=args.standardize,
         pick_ori=None if args.pick_ori == "none" else args.pick_ori,
         method=args.method,
         return_reconstruction=True,
@@ -376,9 +399,24 @@ def _array_route(args):
         exponent=args.exponent,
         smoother=None if args.smoother == "none" else args.smoother,
         method=args.method,
+        standardize=args.standardize,
+        n_orient=_n_orient(args, L, leadfield.positions),
     )
     args.channels = {"used": recording.ch_names or L.shape[0]}
     return rec, None, recording.times, leadfield.positions
+
+
+def _n_orient(args, L, positions):
+    """The columns per position of an array lead field: --n-orient, else from its positions."""
+    if args.n_orient is not None or positions is None:
+        if args.standardize == "position" and args.n_orient is None:
+            raise InputError(
+                f"argument --n-orient: --standardize position needs the columns per source "
+                f"position, and {args.leadfield} has no positions to tell them (1 or 3)"
+            )
+        return args.n_orient
+    components, left = divmod(L.shape[1], max(len(positions), 1))
+    return components if not left and components in (1, 3) else None
 
 
 def _array_noise(args, recording, Y):

@@ -319,6 +319,7 @@ class SKFOperator:
         smoother: str | None = None,
         method: str = "auto",
         memory_limit: float | None = None,
+        standardize: str = "column",
     ) -> Reconstruction:
         """The SKF on data of the operator's channels (in ``ch_names`` order).
 
@@ -331,11 +332,14 @@ class SKFOperator:
             The number of trials averaged (``evoked.nave``; 1 for epochs and raw
             recordings): the data are whitened with the noise covariance divided by it.
         exponent : float
-        smoother : {None, "rts-standardized", "rts-state"}
+        smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
         method : {"auto", "spectral", "dense", "filterpy"}
             ``"auto"`` and ``"spectral"`` reuse the operator's SVD and recursions.
         memory_limit : float, optional
             Bytes the reconstruction may use (default half the memory available).
+        standardize : {"column", "position"}
+            Each column of the forward standardized on its own (the paper's), or each
+            source position's ``n_components`` columns as a whole (docs/model.md §2).
 
         Returns
         -------
@@ -346,7 +350,9 @@ class SKFOperator:
         """
         data = check_array("data", data, (len(self.ch_names), "n_times"), finite=False)
         missing = missing_steps(data, "data")  # columns of NaN: bad segments
-        settings = check_settings(exponent, smoother, method)
+        settings = check_settings(
+            exponent, smoother, method, standardize, self.n_components, self.n_sources
+        )
         check_gaps(settings.smoother, missing)
         exponent, smoother, method = settings.exponent, settings.smoother, settings.method
         nave = check_real("nave", nave, positive=True)
@@ -376,7 +382,9 @@ class SKFOperator:
             )
         if method in ("auto", "spectral"):  # the operator's SVD (and recursions) again
             memory.check_reconstruction("spectral", smoother, n, self.rank, T, memory_limit)
-            rec = self._model(T, theta0, q).apply(whitened, exponent, smoother, memory_limit)
+            rec = self._model(T, theta0, q).apply(
+                whitened, exponent, smoother, memory_limit, standardize, self.n_components
+            )
         else:
             rec = reconstruct(
                 self.leadfield,
@@ -388,6 +396,8 @@ class SKFOperator:
                 smoother=smoother,
                 method=method,
                 memory_limit=memory_limit,
+                standardize=settings.standardize,
+                n_orient=self.n_components,
             )
         return rec.with_tuning(tuning)
 

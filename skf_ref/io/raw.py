@@ -38,6 +38,7 @@ def apply_skf_raw(
     exponent: float = 0.5,
     smoother: str | None = None,
     pick_ori: str | None = None,
+    standardize: str = "column",
     out: str | os.PathLike[str] | None = None,
     overwrite: bool = False,
     memory_limit: float | None = None,
@@ -63,7 +64,7 @@ def apply_skf_raw(
     operator : SKFOperator
     start, stop : int, optional
         The first sample and the one after the last (indices, as ``raw.get_data``).
-    exponent, smoother, pick_ori
+    exponent, smoother, pick_ori, standardize
         As :func:`apply_skf`.
     out : path-like, optional
         A zarr store to create (e.g. ``"run1-skf.zarr"``): its array ``"data"`` holds what
@@ -128,7 +129,11 @@ def apply_skf_raw(
         )
         data = _select(operator, info, data, raw.times[start:stop])
         rec = operator.reconstruct(
-            data, exponent=exponent, smoother=smoother, memory_limit=memory_limit
+            data,
+            exponent=exponent,
+            smoother=smoother,
+            memory_limit=memory_limit,
+            standardize=standardize,
         )
         tmin, tstep = float(raw.times[start]), 1.0 / raw.info["sfreq"]
         if out is None:

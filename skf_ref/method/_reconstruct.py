@@ -14,7 +14,8 @@ from ._model import StateSpaceModel, missing_steps
 from ._paths import dense, spectral
 from ._paths import filterpy_skf as kalman
 from ._result import Reconstruction
-from ._settings import check_gaps, check_settings
+from ._settings import Settings, check_gaps, check_settings
+from ._standardization import check_positions_seen
 
 __all__ = ["reconstruct", "slow_path_seconds"]
 
@@ -91,6 +92,8 @@ def reconstruct(
     method: str = "auto",
     transition: float | ArrayLike = 1.0,
     memory_limit: float | None = None,
+    standardize: str = "column",
+    n_orient: int | None = None,
 ) -> Reconstruction:
     """Standardized Kalman filter (and smoother) reconstruction of EEG sources.
 
@@ -140,11 +143,14 @@ def reconstruct(
         Required (see above).
     exponent : float
         Standardization exponent alpha of §2.2 eq. (7), >= 0. 0.5 is the original SKF.
-    smoother : {None, "rts-standardized", "rts-state"}
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
         None (or ``"none"``, as the command line and results tables write it): the filter
         only. ``"rts-standardized"`` is the paper's smoother over the standardized sequence
         (undefined over missing steps: refused there); ``"rts-state"`` the textbook RTS on
-        the state, standardized afterwards (docs/model.md §3).
+        the state, standardized afterwards with the filter's weights;
+        ``"rts-smoothed-weights"`` the same smoothed state standardized by its own
+        variance, the sLORETA principle applied to the smoothed estimate (defined at
+        missing steps too). docs/model.md §3.
     method : {"auto", "filterpy", "dense", "spectral"}
         Computational path; all give the same result to rounding. ``"spectral"`` (exact,
         fast, memory O(n r + n T)) needs scalar (isotropic) ``transition``, ``q`` and
@@ -159,6 +165,15 @@ def reconstruct(
         before any work: the covariance-storing paths need ``8 n^2 (k T + 8)`` bytes, the
         spectral path ``8 n (4 m + T)`` for its model and one output (each further output
         asked for ``8 n T`` more, checked when it is asked for).
+    standardize : {"column", "position"}
+        ``"column"`` (the paper's, the default) standardizes each column of ``L`` by its own
+        weight; ``"position"`` each source position's ``n_orient`` columns by their block
+        of the weights matrix, as sLORETA does for free orientations (Pascual-Marqui 2002):
+        the result then does not depend on the coordinate axes, and a noise-free dipole of
+        any orientation is found at its position at the first step (docs/model.md §2).
+    n_orient : {1, 3}, optional
+        Columns per source position (3 for free orientation, MNE's x, y, z order; 1 for
+        fixed). Required by ``standardize="position"``.
 
     Returns
     -------
@@ -202,22 +217,24 @@ def reconstruct(
         L, noise_std=noise_std, noise_cov=noise_cov, theta0=theta0, q=q, transition=transition
     )
     data = model.check_data(Y)
-    settings = check_settings(exponent, smoother, method)
+    settings = check_settings(
+        exponent, smoother, method, standardize, n_orient, n_sources=model.n_sources
+    )
     if memory_limit is not None:
         memory_limit = check_real("memory_limit", memory_limit, positive=True)
     check_gaps(settings.smoother, missing_steps(data))
-    return _run(model, data, settings.exponent, settings.smoother, settings.method, memory_limit)
+    return _run(model, data, settings, memory_limit)
 
 
 def _run(
     model: StateSpaceModel,
     Y: NDArray[np.float64],
-    exponent: float,
-    smoother: str | None,
-    method: str,
+    settings: Settings,
     memory_limit: float | None,
 ) -> Reconstruction:
     """Pick the path, check the memory (and the time) it needs, and run it."""
+    exponent, smoother, method = settings.exponent, settings.smoother, settings.method
+    blocks = (settings.standardize, settings.n_orient)
     problem = model.isotropic_problem()
     if method == "auto":
         method = "dense" if problem else "spectral"
@@ -226,12 +243,14 @@ def _run(
     n, m, T = model.n_sources, model.n_channels, Y.shape[1]
     if method != "spectral":
         _warn_if_slow(method, model, T, problem is None)
+        if problem is None:  # isotropic priors: a singular block is a dependent position
+            check_positions_seen(model.L, model.R, settings.block)
     memory.check_reconstruction(method, smoother, n, m, T, memory_limit)
     if method == "spectral":
-        return spectral.run(model, Y, exponent, smoother, memory_limit)
+        return spectral.run(model, Y, exponent, smoother, memory_limit, *blocks)
     path = kalman.run if method == "filterpy" else dense.run
     try:
-        return path(model, Y, exponent, smoother)
+        return path(model, Y, exponent, smoother, *blocks)
     except np.linalg.LinAlgError as err:
         hint = (
             ""

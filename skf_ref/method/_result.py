@@ -130,9 +130,11 @@ class Reconstruction:
         Innovation log-likelihood over the observed steps.
     n_sources, n_times : int
     exponent : float
-    smoother : {None, "rts-standardized", "rts-state"}
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
     method : {"filterpy", "dense", "spectral"}
     theta0, q, transition : float or ndarray, shape (n_sources, n_sources)
+    standardize : {"column", "position"}
+    n_orient : {1, 3} or None
     missing : array_like of bool, shape (n_times,), optional
         The steps without a measurement; default none.
     lazy : LazyOutputs, optional
@@ -147,14 +149,16 @@ class Reconstruction:
     z : ndarray, shape (n_sources, n_times)
         Standardized estimate; smoothed when a smoother was asked, else ``z_filtered``.
     x : ndarray, shape (n_sources, n_times)
-        Unstandardized means: the smoothed state ``x^s_t`` for ``"rts-state"``, the
-        filtered means ``x_{t|t}`` otherwise.
+        Unstandardized means: the smoothed state ``x^s_t`` for ``"rts-state"`` and
+        ``"rts-smoothed-weights"``, the filtered means ``x_{t|t}`` otherwise.
     z_filtered : ndarray, shape (n_sources, n_times)
         ``z_{t|t}`` of §2.2 eq. (6).
     x_filtered : ndarray, shape (n_sources, n_times)
         ``x_{t|t}`` of §2.2 eq. (5) (at a missing step the prediction ``x_{t|t-1}``).
     weights : ndarray, shape (n_sources, n_times)
-        Diagonal of ``W_t^(alpha)``, §2.2 eq. (7), at each step.
+        Diagonal of ``W_t^(alpha)``, §2.2 eq. (7), at each step: ``w_t ** -alpha`` for
+        ``standardize="column"``, the diagonal of the blocks ``B_t(i)^(-alpha)`` for
+        ``"position"`` (docs/model.md §2). Always the filter's (those of ``z_filtered``).
     log_likelihood : float
         Innovation log-likelihood ``sum_t log N(y_t - L x_{t|t-1}; 0, S_t)`` over the
         observed steps.
@@ -165,11 +169,16 @@ class Reconstruction:
     exponent : float
         The standardization exponent alpha.
     smoother : str or None
-        ``None``, ``"rts-standardized"`` or ``"rts-state"``.
+        ``None``, ``"rts-standardized"``, ``"rts-state"`` or ``"rts-smoothed-weights"``.
     method : str
         The path that computed it: ``"filterpy"``, ``"dense"`` or ``"spectral"``.
     theta0, q, transition : float or ndarray, shape (n_sources, n_sources)
         The model's ``P_0``, ``Q`` and ``A`` as given (a scalar ``c`` means ``c I``).
+    standardize : {"column", "position"}
+        Each column standardized on its own (the paper's), or each source position's
+        ``n_orient`` columns as a whole (docs/model.md §2).
+    n_orient : int or None
+        Columns per source position, when given.
     tuning : TuneResult or None
         When the priors were chosen by the data (``"auto"``), how.
 
@@ -202,6 +211,8 @@ class Reconstruction:
         theta0: float | NDArray[np.float64],
         q: float | NDArray[np.float64],
         transition: float | NDArray[np.float64] = 1.0,
+        standardize: str = "column",
+        n_orient: int | None = None,
         missing: ArrayLike | None = None,
         lazy: LazyOutputs | None = None,
         min_raw_weight: float | None = None,
@@ -226,6 +237,7 @@ class Reconstruction:
         self.log_likelihood = float(log_likelihood)
         self.exponent, self.smoother, self.method = float(exponent), smoother, method
         self.theta0, self.q, self.transition = theta0, q, transition
+        self.standardize, self.n_orient = standardize, n_orient
         self.tuning = tuning
         self._arrays: dict[str, NDArray[np.float64]] = {}
         for name, value in given.items():
@@ -367,6 +379,8 @@ class Reconstruction:
             "method": self.method,
             "exponent": self.exponent,
             "smoother": self.smoother,
+            "standardize": self.standardize,
+            "n_orient": self.n_orient,
             "theta0": _setting(self.theta0),
             "q": _setting(self.q),
             "transition": _setting(self.transition),
@@ -376,9 +390,10 @@ class Reconstruction:
         smoother = self.smoother or "filter only"
         n_missing = int(np.count_nonzero(self.missing))
         gaps = f", {n_missing} missing" if n_missing else ""
+        blocks = f", per position of {self.n_orient}" if self.standardize == "position" else ""
         return (
             f"<Reconstruction | {self.n_sources} sources x {self.n_times} steps{gaps}, "
-            f"{self.method}, exponent {self.exponent:g}, {smoother}>"
+            f"{self.method}, exponent {self.exponent:g}, {smoother}{blocks}>"
         )
 
     def _repr_html_(self) -> str:

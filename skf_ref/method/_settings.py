@@ -3,8 +3,9 @@
 A setting is an exponent and a smoother, the two keyword arguments of
 :func:`skf_ref.reconstruct` and :func:`skf_ref.apply_skf` they fill:
 ``reconstruct(L, Y, ..., **PAPER_SETTING)``. :func:`check_settings` checks what a run is
-asked to do (the exponent, the smoother, the computational path) for every route that
-runs the SKF (:func:`skf_ref.reconstruct`, an operator's ``reconstruct``), once.
+asked to do (the exponent, the smoother, the standardization, the computational path) for
+every route that runs the SKF (:func:`skf_ref.reconstruct`, an operator's
+``reconstruct``), once.
 """
 
 from dataclasses import dataclass
@@ -13,13 +14,14 @@ from types import MappingProxyType
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._utils.checks import InputError, check_choice, check_real
+from .._utils.checks import InputError, check_choice, check_int, check_real
 
 __all__ = [
     "METHODS",
     "PAPER_SETTING",
     "RECOMMENDED_SETTING",
     "SMOOTHERS",
+    "STANDARDIZATIONS",
     "Settings",
     "check_gaps",
     "check_settings",
@@ -37,7 +39,10 @@ RECOMMENDED_SETTING = MappingProxyType({"exponent": 0.5, "smoother": None})
 #: is absent from the data in most runs at 20-30 dB.
 PAPER_SETTING = MappingProxyType({"exponent": 1.25, "smoother": "rts-standardized"})
 #: The smoothers (docs/model.md §3); None is the filter alone.
-SMOOTHERS = (None, "rts-standardized", "rts-state")
+SMOOTHERS = (None, "rts-standardized", "rts-state", "rts-smoothed-weights")
+#: What is standardized as a whole (docs/model.md §2): each column of the lead field (the
+#: paper's), or each source position's ``n_orient`` columns together.
+STANDARDIZATIONS = ("column", "position")
 #: The computational paths; "auto" takes the spectral one whenever the model allows it.
 METHODS = ("auto", "filterpy", "dense", "spectral")
 
@@ -50,13 +55,24 @@ class Settings:
     ----------
     exponent : float
         The standardization exponent alpha of §2.2 eq. (7), >= 0.
-    smoother : {None, "rts-standardized", "rts-state"}
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
     method : {"auto", "filterpy", "dense", "spectral"}
+    standardize : {"column", "position"}
+    n_orient : {1, 3} or None
+        Columns per source position (None: not given, allowed with ``"column"`` only).
     """
 
     exponent: float = 0.5
     smoother: str | None = None
     method: str = "auto"
+    standardize: str = "column"
+    n_orient: int | None = None
+
+    @property
+    def block(self) -> int:
+        """int : The size of the blocks standardized together: ``n_orient`` for
+        ``"position"``, 1 (each column) for ``"column"``."""
+        return self.n_orient if self.standardize == "position" and self.n_orient else 1
 
 
 def check_smoother(smoother: object) -> str | None:
@@ -78,7 +94,12 @@ def check_smoother(smoother: object) -> str | None:
 
 
 def check_settings(
-    exponent: object = 0.5, smoother: object = None, method: object = "auto"
+    exponent: object = 0.5,
+    smoother: object = None,
+    method: object = "auto",
+    standardize: object = "column",
+    n_orient: object = None,
+    n_sources: int | None = None,
 ) -> Settings:
     """Check a run's settings, naming the parameter, what it may be and what it got.
 
@@ -86,8 +107,14 @@ def check_settings(
     ----------
     exponent : float
         >= 0.
-    smoother : {None, "none", "rts-standardized", "rts-state"}
+    smoother : {None, "none", "rts-standardized", "rts-state", "rts-smoothed-weights"}
     method : {"auto", "filterpy", "dense", "spectral"}
+    standardize : {"column", "position"}
+        ``"position"`` needs ``n_orient``.
+    n_orient : {1, 3}, optional
+        Columns per source position, MNE's order.
+    n_sources : int, optional
+        The lead field's columns, which ``n_orient`` must divide.
 
     Returns
     -------
@@ -96,17 +123,39 @@ def check_settings(
     Examples
     --------
     >>> check_settings(1, "none")
-    Settings(exponent=1.0, smoother=None, method='auto')
+    Settings(exponent=1.0, smoother=None, method='auto', standardize='column', n_orient=None)
     >>> check_settings(method="kalman")
     Traceback (most recent call last):
     ...
     skf_ref._utils.checks.InputError: method must be one of ['auto', 'filterpy', 'dense', \
 'spectral'], got 'kalman'
+    >>> check_settings(standardize="position")
+    Traceback (most recent call last):
+    ...
+    skf_ref._utils.checks.InputError: standardize='position' needs n_orient, the columns \
+per source position (3 for free orientation, 1 for fixed)
     """
+    standardize = check_choice("standardize", standardize, STANDARDIZATIONS)
+    if n_orient is not None:
+        n_orient = check_int("n_orient", n_orient, minimum=None)
+        if n_orient not in (1, 3):
+            raise InputError(f"n_orient must be 1 or 3, got {n_orient!r}")
+        if n_sources is not None and n_sources % n_orient:
+            raise InputError(
+                f"n_orient={n_orient} must divide the {n_sources} columns of L (positions "
+                "of n_orient columns each, MNE's order)"
+            )
+    elif standardize == "position":
+        raise InputError(
+            "standardize='position' needs n_orient, the columns per source position (3 for "
+            "free orientation, 1 for fixed)"
+        )
     return Settings(
         exponent=check_real("exponent", exponent, nonnegative=True),
         smoother=check_smoother(smoother),
         method=check_choice("method", method, METHODS),
+        standardize=standardize,
+        n_orient=n_orient,
     )
 
 

@@ -4,22 +4,41 @@ The raw weights ``w_t = diag(P^{-1/2} K S K^T P^{-1/2})`` come from the matrices
 :func:`raw_weights` (the dense path and the filterpy subclass) or from singular values (the
 spectral path); every path then calls :func:`standardize`. :func:`restandardize` is the
 standardization of a smoothed state for ``"rts-state"`` (docs/model.md §3).
+
+Standardization per position (``standardize="position"``, docs/model.md §2) replaces the
+diagonal of ``Psi_t = P^{-1/2} K S K^T P^{-1/2}`` by its ``n_orient x n_orient`` diagonal
+blocks (:func:`raw_blocks`), and ``w ** -alpha`` by the blocks' powers
+(:func:`weight_blocks`); blocks of one are the column form. :func:`standardize_smoothed` is
+the smoother standardized by its own variance, ``"rts-smoothed-weights"`` (§3). The paths
+that hold every covariance (dense, filterpy) call these; the spectral path computes the
+same blocks from singular values (``skf_ref.method._paths.block_weights``).
 """
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy import linalg
 
+from .._utils.checks import InputError
+from ._powers import block_power
+
 _Array = NDArray[np.float64]
 
 __all__ = [
+    "apply_blocks",
+    "block_diagonal",
+    "check_positions_seen",
+    "diagonal_blocks",
     "inverse_sqrt",
     "overflow_cause",
+    "raw_blocks",
     "raw_weights",
     "restandardize",
+    "restandardize_blocks",
     "standardization_weights",
     "standardize",
+    "standardize_smoothed",
     "standardized_means",
+    "weight_blocks",
 ]
 
 
@@ -228,3 +247,239 @@ def inverse_sqrt(P: _Array) -> _Array:
             f"{eigenvalues[0]:.3g} to {eigenvalues[-1]:.3g})"
         )
     return (eigenvectors / np.sqrt(eigenvalues)) @ eigenvectors.T
+
+
+# --- standardization per position (docs/model.md §2) -------------------------------------
+
+
+#: A position whose columns of the whitened lead field have a Gram matrix with an
+#: eigenvalue below this fraction of its largest is not seen in every orientation: its
+#: block is singular to double precision (rounding alone leaves about eps there).
+POSITION_RCOND = 1e-12
+
+
+def check_positions_seen(L: _Array, R: _Array, n_orient: int, what: str = "L") -> None:
+    """Refuse the standardization per position where a position's block is singular.
+
+    With isotropic priors (``P_{t|t-1} = p I`` at the first step) ``B_1(i)`` is singular
+    exactly when the ``n_orient`` columns of the whitened lead field ``C^{-1} L`` at
+    position ``i`` (``R = C C^T``) are linearly dependent: the sensors do not see every
+    orientation there (MEG's radial orientation in a spherical head; fewer independent
+    channels than orientations). Its power ``B^(-alpha)`` is then undefined.
+
+    Parameters
+    ----------
+    L : ndarray, shape (n_channels, n_sources)
+    R : ndarray, shape (n_channels, n_channels)
+    n_orient : int
+    what : str
+        How to name the lead field in the error.
+
+    Raises
+    ------
+    skf_ref.InputError
+        Naming the first such position and its columns.
+
+    Examples
+    --------
+    >>> L = np.array([[1.0, 0.0, 1.0], [0.0, 1.0, 1.0]])  # 3 orientations, 2 channels
+    >>> check_positions_seen(L, np.eye(2), 3)
+    Traceback (most recent call last):
+    ...
+    skf_ref._utils.checks.InputError: standardize='position' needs every orientation of a \
+position seen by the sensors: position 0 (columns 0-2 of L) has a singular block ...
+    """
+    if n_orient == 1:
+        return
+    Lw = linalg.solve_triangular(linalg.cholesky(R, lower=True), L, lower=True)
+    columns = Lw.T.reshape(-1, n_orient, Lw.shape[0])
+    gram = columns @ np.swapaxes(columns, 1, 2)  # (positions, k, k)
+    eigenvalues = np.linalg.eigvalsh(gram)
+    singular = np.flatnonzero(~(eigenvalues[:, 0] > POSITION_RCOND * eigenvalues[:, -1]))
+    if len(singular):
+        i = int(singular[0])
+        raise InputError(
+            "standardize='position' needs every orientation of a position seen by the "
+            f"sensors: position {i} (columns {n_orient * i}-{n_orient * i + n_orient - 1} of "
+            f"{what}) has a singular block ({len(singular)} such positions; condition "
+            f"number over {1 / POSITION_RCOND:.0e}): in MEG with a spherical head the radial "
+            "orientation is silent; use standardize='column', or fixed orientation"
+        )
+
+
+def diagonal_blocks(M: _Array, k: int) -> _Array:
+    """The ``k x k`` diagonal blocks of a square matrix, (n // k, k, k).
+
+    Examples
+    --------
+    >>> diagonal_blocks(np.arange(16.0).reshape(4, 4), 2).tolist()
+    [[[0.0, 1.0], [4.0, 5.0]], [[10.0, 11.0], [14.0, 15.0]]]
+    """
+    n = len(M) // k
+    blocks = M.reshape(n, k, n, k)
+    return np.ascontiguousarray(blocks[np.arange(n), :, np.arange(n), :])
+
+
+def raw_blocks(P_pred_inv_sqrt: _Array, K: _Array, S: _Array, n_orient: int) -> _Array:
+    """The blocks ``B_t(i)`` of ``Psi_t = P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2}``.
+
+    Parameters
+    ----------
+    P_pred_inv_sqrt : ndarray, shape (n_sources, n_sources)
+    K : ndarray, shape (n_sources, n_channels)
+    S : ndarray, shape (n_channels, n_channels)
+    n_orient : int
+        Columns per block; 1 gives the raw weights ``w_t`` (:func:`raw_weights`).
+
+    Returns
+    -------
+    ndarray, shape (n_sources // n_orient, n_orient, n_orient)
+
+    Examples
+    --------
+    >>> raw_blocks(np.eye(2), np.array([[1.0], [2.0]]), np.array([[3.0]]), 2).tolist()
+    [[[3.0, 6.0], [6.0, 12.0]]]
+    """
+    if n_orient == 1:
+        return raw_weights(P_pred_inv_sqrt, K, S)[:, None, None]
+    # B_t(i) = M_i S_t M_i^T with M = P_{t|t-1}^{-1/2} K_t, M_i its rows at position i
+    M = (P_pred_inv_sqrt @ K).reshape(-1, n_orient, K.shape[1])
+    return np.einsum("iam,mn,ibn->iab", M, S, M)
+
+
+def weight_blocks(B: _Array, exponent: float) -> _Array:
+    """``W_t^(alpha)`` block by block: ``B_t(i)^(-alpha)`` (docs/model.md §2).
+
+    Parameters
+    ----------
+    B : ndarray, shape (..., k, k)
+        Symmetric positive definite blocks; blocks of one are the raw weights ``w_t``.
+    exponent : float
+
+    Returns
+    -------
+    ndarray, shape (..., k, k)
+        The blocks' powers through their eigendecomposition; for ``k = 1`` the diagonal
+        weights ``w_t ** -alpha`` of §2.2 eq. (7) (:func:`standardization_weights`).
+
+    Examples
+    --------
+    >>> weight_blocks(np.array([[[0.25]], [[4.0]]]), 0.5).ravel().tolist()
+    [2.0, 0.5]
+    """
+    if B.shape[-1] == 1:
+        # W_t^(alpha) = Diag(w_t)^(-alpha)                                 §2.2 (7)
+        return standardization_weights(B, exponent)
+    # W_t^(alpha) = blockdiag_i B_t(i)^(-alpha), by eigh          docs/model.md §2
+    return block_power(B, exponent)
+
+
+def apply_blocks(W: _Array, v: _Array) -> _Array:
+    """``W v`` for a block-diagonal ``W`` given by its blocks: ``z = W_t^(alpha) v``.
+
+    Parameters
+    ----------
+    W : ndarray, shape (..., n // k, k, k)
+    v : ndarray, shape (..., n)
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+
+    Examples
+    --------
+    >>> apply_blocks(np.array([[[2.0, 1.0], [1.0, 2.0]]]), np.array([1.0, 1.0])).tolist()
+    [3.0, 3.0]
+    """
+    k = W.shape[-1]
+    with np.errstate(over="ignore", invalid="ignore"):
+        if k == 1:  # a diagonal W: z = W_t^(alpha) v, elementwise          §2.2 (6)
+            return np.multiply(v, W.reshape(v.shape))
+        blocks = v.reshape(*v.shape[:-1], -1, k)
+        return np.einsum("...ij,...j->...i", W, blocks).reshape(v.shape)
+
+
+def block_diagonal(W: _Array) -> _Array:
+    """The diagonal of a block-diagonal matrix given by its blocks, (..., n).
+
+    Examples
+    --------
+    >>> block_diagonal(np.array([[[2.0, 1.0], [1.0, 3.0]], [[4.0, 0.0], [0.0, 5.0]]])).tolist()
+    [2.0, 3.0, 4.0, 5.0]
+    """
+    diagonal = np.diagonal(W, axis1=-2, axis2=-1)
+    return diagonal.reshape(*diagonal.shape[:-2], -1)
+
+
+def restandardize_blocks(W: _Array, P_pred_inv_sqrt: _Array, x: _Array) -> _Array:
+    """Standardize a smoothed state with the filter's own weight blocks (``"rts-state"``).
+
+    ``z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t`` (docs/model.md §3), as
+    :func:`restandardize` for a block-diagonal ``W_t^(alpha)``.
+
+    Parameters
+    ----------
+    W : ndarray, shape (n_times, n_sources // k, k, k)
+        The filter's ``W_t^(alpha)`` blocks (:func:`weight_blocks`).
+    P_pred_inv_sqrt : ndarray, shape (n_times, n_sources, n_sources)
+    x : ndarray, shape (n_times, n_sources)
+
+    Returns
+    -------
+    ndarray, shape (n_times, n_sources)
+
+    Examples
+    --------
+    >>> restandardize_blocks(np.array([[[[0.5]]]]), np.array([[[0.5]]]), np.array([[6.0]]))
+    array([[1.5]])
+    """
+    return apply_blocks(W, np.einsum("tij,tj->ti", P_pred_inv_sqrt, x))
+
+
+def standardize_smoothed(
+    x_smoothed: _Array, P_smoothed: _Array, Sigma: _Array, exponent: float, n_orient: int
+) -> _Array:
+    """The smoothed state over its own variance, ``"rts-smoothed-weights"`` (docs/model.md §3).
+
+    ``Psi^s_t = Sigma_t^{-1/2} (Sigma_t - P^s_t) Sigma_t^{-1/2}`` is the covariance, under
+    the model, of the whitened smoothed state ``Sigma_t^{-1/2} x^s_t``; its diagonal (or its
+    blocks, ``n_orient`` > 1) to the power ``-alpha`` standardize it:
+    ``z^s_t = W^s_t Sigma_t^{-1/2} x^s_t``.
+
+    Parameters
+    ----------
+    x_smoothed : ndarray, shape (n_times, n_sources)
+        ``x^s_t``.
+    P_smoothed : ndarray, shape (n_times, n_sources, n_sources)
+        ``P^s_t`` from the RTS covariance recursion (§2.3 eq. (4)).
+    Sigma : ndarray, shape (n_times, n_sources, n_sources)
+        The prior covariance of ``x_t``: ``Sigma_t = A Sigma_{t-1} A^T + Q``,
+        ``Sigma_0 = P_0``, for ``t = 1 .. T``.
+    exponent : float
+    n_orient : int
+        Columns standardized together (1: each on its own).
+
+    Returns
+    -------
+    ndarray, shape (n_times, n_sources)
+        ``z^s_t``.
+
+    Examples
+    --------
+    One source, one step: ``Sigma = 4``, ``P^s = 3``, so ``x^s`` has variance 1 under the
+    model and at ``alpha = 1/2`` is its own z-score:
+
+    >>> standardize_smoothed(np.array([[2.0]]), np.array([[[3.0]]]), np.array([[[4.0]]]),
+    ...                      0.5, 1).tolist()
+    [[2.0]]
+    """
+    z = np.empty_like(x_smoothed)
+    for t in range(len(z)):
+        Sigma_inv_sqrt = inverse_sqrt(Sigma[t])
+        # Psi^s_t = Sigma_t^{-1/2} (Sigma_t - P^s_t) Sigma_t^{-1/2}      docs/model.md §3
+        Psi = Sigma_inv_sqrt @ (Sigma[t] - P_smoothed[t]) @ Sigma_inv_sqrt
+        # W^s_t = its diagonal (or blocks) to the power -alpha
+        W = weight_blocks(diagonal_blocks((Psi + Psi.T) / 2, n_orient), exponent)
+        # z^s_t = W^s_t Sigma_t^{-1/2} x^s_t
+        z[t] = apply_blocks(W, Sigma_inv_sqrt @ x_smoothed[t])
+    return z

@@ -140,7 +140,7 @@ def run_demo(
         the data with both sources; the control reuses them.
     exponent : float
         Standardization exponent of the first SKF (the paper's setting is the second).
-    smoother : {None, "rts-standardized", "rts-state"}
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
         Its smoother.
     verbose : bool or str or int or None
         Progress on the ``"skf_ref"`` logger, as MNE's ``verbose``.

@@ -2,9 +2,11 @@
 
 One loop, one equation a line. Equation numbers are the paper's, with its section, since the
 paper reuses tags across sections: §2.2 eqs. (4)-(7) for the filter, §2.3 eq. (4) for the
-RTS smoother; docs/model.md states them all. This module is the oracle: every other path
-(the filterpy subclass, the spectral path) is compared against it. It stores every
-covariance, so it costs O(n^3) per step and O(T n^2) memory.
+RTS smoother; docs/model.md states them all, and the two options beyond the paper: the
+standardization per position (§2) and the smoother standardized by its own variance (§3).
+This module is the oracle: every other path (the filterpy subclass, the spectral path) is
+compared against it. It stores every covariance, so it costs O(n^3) per step and O(T n^2)
+memory.
 
 Symbols: ``L`` lead field (m, n), ``R`` noise covariance (m, m), ``A`` transition (n, n),
 ``Q`` process covariance (n, n), ``P0`` initial covariance (n, n). Internally time runs
@@ -19,9 +21,28 @@ from scipy import linalg
 
 from .._model import StateSpaceModel
 from .._result import Reconstruction
-from .._standardization import inverse_sqrt, raw_weights, restandardize, standardize
+from .._standardization import (
+    apply_blocks,
+    block_diagonal,
+    inverse_sqrt,
+    raw_blocks,
+    raw_weights,
+    restandardize_blocks,
+    standardize_smoothed,
+    weight_blocks,
+)
 
-__all__ = ["kalman_filter", "predict", "result", "rts", "run", "smooth", "update"]
+__all__ = [
+    "kalman_filter",
+    "predict",
+    "prior_covariances",
+    "result",
+    "rts",
+    "rts_covariances",
+    "run",
+    "smooth",
+    "update",
+]
 
 _LOG_2PI = np.log(2 * np.pi)
 _Array = NDArray[np.float64]
@@ -120,6 +141,7 @@ def kalman_filter(
     Q: NDArray[np.float64],
     P0: NDArray[np.float64],
     exponent: float,
+    block: int = 1,
 ) -> dict[str, Any]:
     """Run the SKF forward pass (§2.2 eqs. 4-7), keeping every mean and covariance.
 
@@ -134,12 +156,16 @@ def kalman_filter(
     R : ndarray, shape (n_channels, n_channels)
     A, Q, P0 : ndarray, shape (n_sources, n_sources)
     exponent : float
+    block : int
+        Columns standardized together: 1, each column on its own (the paper's); the
+        positions' ``n_orient`` for the standardization per position (docs/model.md §2).
 
     Returns
     -------
     dict
         ``x_filt``, ``x_pred``, ``z``, raw weights ``w`` and ``weights`` (the diagonal of
-        ``W_t^(alpha)``) of shape (n_times, n_sources);
+        ``W_t^(alpha)``) of shape (n_times, n_sources); ``W``, the blocks of
+        ``W_t^(alpha)``, (n_times, n_sources // block, block, block);
         ``P_filt``, ``P_pred``, ``P_pred_inv_sqrt`` of shape (n_times, n_sources, n_sources);
         ``log_likelihood`` (float); ``missing`` (n_times,), the missing steps.
     """
@@ -147,6 +173,7 @@ def kalman_filter(
     out: dict[str, Any] = {
         key: np.full((T, n), np.nan) for key in ("x_filt", "x_pred", "z", "w", "weights")
     }
+    out["W"] = np.full((T, n // block, block, block), np.nan)
     for key in ("P_filt", "P_pred", "P_pred_inv_sqrt"):
         out[key] = np.full((T, n, n), np.nan)
     x, P, total = np.zeros(n), P0, 0.0
@@ -163,10 +190,17 @@ def kalman_filter(
             P_pred_inv_sqrt = inverse_sqrt(P_pred)
         except linalg.LinAlgError as err:
             raise linalg.LinAlgError(f"at step {t + 1}: {err}") from err
+        # w_t = diag(Psi_t), Psi_t = P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2}  §2.2 (7)
         w = raw_weights(P_pred_inv_sqrt, K, S)
-        weights, z = standardize(w, P_pred_inv_sqrt @ x, exponent)
+        # B_t(i): the n_orient x n_orient diagonal blocks of Psi_t (1 x 1: w_t)  docs/model.md §2
+        B = raw_blocks(P_pred_inv_sqrt, K, S, block)
+        # W_t^(alpha) = blockdiag_i B_t(i)^(-alpha)  (1 x 1: Diag(w_t)^(-alpha))    §2.2 (7)
+        W = weight_blocks(B, exponent)
+        # z_{t|t} = W_t^(alpha) P_{t|t-1}^{-1/2} x_{t|t}                          §2.2 (6)
+        z = apply_blocks(W, P_pred_inv_sqrt @ x)
         total += log_likelihood
-        out["x_filt"][t], out["z"][t], out["w"][t], out["weights"][t] = x, z, w, weights
+        out["x_filt"][t], out["z"][t], out["w"][t], out["W"][t] = x, z, w, W
+        out["weights"][t] = block_diagonal(W)
         out["P_filt"][t], out["P_pred_inv_sqrt"][t] = P, P_pred_inv_sqrt
     out["log_likelihood"], out["missing"] = total, np.isnan(Y[0])
     return out
@@ -206,8 +240,61 @@ def rts(
     return s
 
 
+def rts_covariances(
+    P_filt: NDArray[np.float64], P_pred: NDArray[np.float64], A: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The smoothed covariances ``P^s_t`` of the RTS recursion, §2.3 eqs. (3)-(4).
+
+    Parameters
+    ----------
+    P_filt, P_pred : ndarray, shape (n_times, n_sources, n_sources)
+        ``P_{t|t}`` and ``P_{t|t-1}``.
+    A : ndarray, shape (n_sources, n_sources)
+
+    Returns
+    -------
+    ndarray, shape (n_times, n_sources, n_sources)
+        Symmetrized.
+    """
+    # P^s_T = P_{T|T}                                              §2.3 (3)
+    P_s = P_filt.copy()
+    for t in range(len(P_s) - 2, -1, -1):
+        # G_t = P_{t|t} A^T P_{t+1|t}^{-1}                             §2.3 (4)
+        G = linalg.solve(P_pred[t + 1], A @ P_filt[t], assume_a="pos").T
+        # P^s_t = P_{t|t} + G_t (P^s_{t+1} - P_{t+1|t}) G_t^T            §2.3 (4)
+        P = P_filt[t] + G @ (P_s[t + 1] - P_pred[t + 1]) @ G.T
+        P_s[t] = (P + P.T) / 2
+    return P_s
+
+
+def prior_covariances(
+    A: NDArray[np.float64], Q: NDArray[np.float64], P0: NDArray[np.float64], n_times: int
+) -> NDArray[np.float64]:
+    """The prior covariance ``Sigma_t`` of the state ``x_t``, t = 1 .. T (docs/model.md §3).
+
+    ``Sigma_0 = P_0`` (the covariance of ``x_0``), ``Sigma_t = A Sigma_{t-1} A^T + Q``: the
+    covariance of ``x_t`` before any data are seen. ``Sigma_1 = P_{1|0}``.
+
+    Returns
+    -------
+    ndarray, shape (n_times, n_sources, n_sources)
+    """
+    Sigma = np.empty((n_times, *P0.shape))
+    previous = P0
+    for t in range(n_times):
+        # Sigma_t = A Sigma_{t-1} A^T + Q                            docs/model.md §3
+        previous = A @ previous @ A.T + Q
+        previous = Sigma[t] = (previous + previous.T) / 2
+    return Sigma
+
+
 def run(
-    model: StateSpaceModel, Y: NDArray[np.float64], exponent: float, smoother: str | None
+    model: StateSpaceModel,
+    Y: NDArray[np.float64],
+    exponent: float,
+    smoother: str | None,
+    standardize: str = "column",
+    n_orient: int | None = None,
 ) -> Reconstruction:
     """Filter, smooth if asked, and return the result.
 
@@ -217,21 +304,29 @@ def run(
     Y : ndarray, shape (n_channels, n_times)
         A column of NaN is a missing step.
     exponent : float
-    smoother : {None, "rts-standardized", "rts-state"}
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
         ``"rts-standardized"`` only without missing steps (the caller checks).
+    standardize : {"column", "position"}
+    n_orient : {1, 3} or None
+        Checked by the caller (``"position"`` needs it).
 
     Returns
     -------
     Reconstruction
     """
+    block = n_orient if standardize == "position" and n_orient else 1
     A, Q, P0 = (model.matrix(name) for name in ("transition", "q", "theta0"))
-    f = kalman_filter(model.L, Y, model.R, A, Q, P0, exponent)
-    x, z = smooth(f, smoother, A, exponent)
-    return result(f, x, z, model, exponent, smoother, "dense")
+    f = kalman_filter(model.L, Y, model.R, A, Q, P0, exponent, block)
+    x, z = smooth(f, smoother, (A, Q, P0), exponent, block)
+    return result(f, x, z, model, exponent, smoother, "dense", (standardize, n_orient))
 
 
 def smooth(
-    filtered: dict[str, Any], smoother: str | None, A: _Array, exponent: float
+    filtered: dict[str, Any],
+    smoother: str | None,
+    matrices: tuple[_Array, _Array, _Array],
+    exponent: float,
+    block: int = 1,
 ) -> tuple[_Array, _Array]:
     """The smoothed ``x`` and ``z`` (time-major) of :func:`kalman_filter`'s output.
 
@@ -239,9 +334,11 @@ def smooth(
     ----------
     filtered : dict
         :func:`kalman_filter`'s output.
-    smoother : {None, "rts-standardized", "rts-state"}
-    A : ndarray, shape (n_sources, n_sources)
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
+    matrices : (A, Q, P0), each ndarray of shape (n_sources, n_sources)
     exponent : float
+    block : int
+        Columns standardized together (:func:`kalman_filter`).
 
     Returns
     -------
@@ -249,6 +346,7 @@ def smooth(
         The filtered ones for ``smoother=None``.
     """
     f = filtered
+    A, Q, P0 = matrices
     x, z = f["x_filt"], f["z"]
     if smoother == "rts-standardized":
         # the paper's smoother: RTS over the standardized sequence (docs/model.md §3)
@@ -256,7 +354,14 @@ def smooth(
     elif smoother == "rts-state":
         # textbook RTS on the state, then z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t
         x = rts(f["x_filt"], f["P_filt"], f["P_pred"], A)
-        z = restandardize(f["w"], f["P_pred_inv_sqrt"], x, exponent)
+        z = restandardize_blocks(f["W"], f["P_pred_inv_sqrt"], x)
+    elif smoother == "rts-smoothed-weights":
+        # textbook RTS on the state and its covariance P^s_t, then the smoothed state over
+        # its own variance: z^s_t = W^s_t Sigma_t^{-1/2} x^s_t        docs/model.md §3
+        x = rts(f["x_filt"], f["P_filt"], f["P_pred"], A)
+        P_s = rts_covariances(f["P_filt"], f["P_pred"], A)
+        Sigma = prior_covariances(A, Q, P0, len(x))
+        z = standardize_smoothed(x, P_s, Sigma, exponent, block)
     return x, z
 
 
@@ -268,9 +373,11 @@ def result(
     exponent: float,
     smoother: str | None,
     method: str,
+    standardization: tuple[str, int | None] = ("column", None),
 ) -> Reconstruction:
     """The result of a covariance-storing path (dense, filterpy) from its time-major
-    (n_times, n_sources) filter output and its (smoothed) ``x`` and ``z``."""
+    (n_times, n_sources) filter output and its (smoothed) ``x`` and ``z``;
+    ``standardization`` is ``(standardize, n_orient)``."""
     return Reconstruction(
         z=z.T,
         x=x.T,
@@ -286,6 +393,8 @@ def result(
         theta0=model.theta0,
         q=model.q,
         transition=model.transition,
+        standardize=standardization[0],
+        n_orient=standardization[1],
         missing=filtered.get("missing"),  # None: every step observed
         min_raw_weight=float(np.nanmin(filtered["w"])),
     )

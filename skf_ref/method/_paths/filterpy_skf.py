@@ -2,21 +2,34 @@
 
 filterpy does the predict (§2.2 eq. 4), the update (§2.2 eq. 5) and the RTS smoother
 (§2.3 eq. 4); this subclass only adds the standardization, §2.2 eqs. (6)-(7), after each
-update, from the predicted covariance, gain and innovation covariance filterpy has just used.
-filterpy's own ``alpha`` (fading memory) keeps its meaning; the standardization exponent is
-``exponent``.
+update, from the predicted covariance, gain and innovation covariance filterpy has just used
+(per column, or per source position: docs/model.md §2). The smoother standardized by its own
+variance takes the smoothed covariances filterpy's ``rts_smoother`` returns and the prior
+covariances from filterpy's ``predict`` (docs/model.md §3). filterpy's own ``alpha`` (fading
+memory) keeps its meaning; the standardization exponent is ``exponent``.
 """
 
 from typing import Any
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
+from filterpy.kalman import predict as filterpy_predict
 from numpy.typing import ArrayLike, NDArray
 
 from ..._utils.checks import check_int, check_real
 from .._model import StateSpaceModel
 from .._result import Reconstruction
-from .._standardization import inverse_sqrt, raw_weights, restandardize, standardize
+from .._settings import check_settings
+from .._standardization import (
+    apply_blocks,
+    block_diagonal,
+    inverse_sqrt,
+    raw_blocks,
+    raw_weights,
+    restandardize_blocks,
+    standardize_smoothed,
+    weight_blocks,
+)
 from .dense import result
 
 __all__ = ["StandardizedKalmanFilter", "run"]
@@ -33,11 +46,18 @@ class StandardizedKalmanFilter(KalmanFilter):
         Number of measurements (channels).
     exponent : float
         Standardization exponent alpha of §2.2 eq. (7); 0.5 is the original SKF.
+    standardize : {"column", "position"}
+        Each state component standardized on its own (the paper's), or each source
+        position's ``n_orient`` components as a whole (docs/model.md §2).
+    n_orient : {1, 3}
+        Components per source position (MNE's order); with ``"column"`` it is not used.
 
     Attributes
     ----------
     weights : ndarray, shape (dim_x,)
         Diagonal of ``W_t^(alpha)`` after the last update.
+    weight_blocks : ndarray, shape (dim_x // k, k, k)
+        The blocks of ``W_t^(alpha)`` (``k = n_orient`` per position, 1 per column).
     raw_weights : ndarray, shape (dim_x,)
         ``w_t = diag(P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2})`` of the last update.
     x_standardized : ndarray, shape (dim_x,)
@@ -59,10 +79,20 @@ class StandardizedKalmanFilter(KalmanFilter):
     True
     """
 
-    def __init__(self, dim_x: int, dim_z: int, exponent: float = 0.5) -> None:
+    def __init__(
+        self,
+        dim_x: int,
+        dim_z: int,
+        exponent: float = 0.5,
+        standardize: str = "column",
+        n_orient: int = 1,
+    ) -> None:
         super().__init__(check_int("dim_x", dim_x), check_int("dim_z", dim_z))
         self.exponent = check_real("exponent", exponent, nonnegative=True)
+        settings = check_settings(standardize=standardize, n_orient=n_orient, n_sources=self.dim_x)
+        self.standardize, self.n_orient, self._block = standardize, n_orient, settings.block
         self.weights = np.full(dim_x, np.nan)
+        self.weight_blocks = np.full((dim_x // self._block, self._block, self._block), np.nan)
         self.x_standardized = np.full(dim_x, np.nan)
         self.raw_weights = np.full(dim_x, np.nan)
         self.P_prior_inv_sqrt = np.full((dim_x, dim_x), np.nan)
@@ -79,19 +109,28 @@ class StandardizedKalmanFilter(KalmanFilter):
         super().update(z, R=R, H=H)
         if z is None:
             self.weights = np.full(self.dim_x, np.nan)
+            self.weight_blocks = np.full_like(self.weight_blocks, np.nan)
             self.x_standardized = np.full(self.dim_x, np.nan)
             self.raw_weights = np.full(self.dim_x, np.nan)
             self.P_prior_inv_sqrt = np.full((self.dim_x, self.dim_x), np.nan)
             return
         self.P_prior_inv_sqrt = inverse_sqrt(P_prior)
         self.raw_weights = raw_weights(self.P_prior_inv_sqrt, self.K, self.S)
-        self.weights, self.x_standardized = standardize(
-            self.raw_weights, self.P_prior_inv_sqrt @ self.x.ravel(), self.exponent
+        B = raw_blocks(self.P_prior_inv_sqrt, self.K, self.S, self._block)
+        self.weight_blocks = weight_blocks(B, self.exponent)
+        self.weights = block_diagonal(self.weight_blocks)
+        self.x_standardized = apply_blocks(
+            self.weight_blocks, self.P_prior_inv_sqrt @ self.x.ravel()
         )
 
 
 def run(
-    model: StateSpaceModel, Y: NDArray[np.float64], exponent: float, smoother: str | None
+    model: StateSpaceModel,
+    Y: NDArray[np.float64],
+    exponent: float,
+    smoother: str | None,
+    standardize: str = "column",
+    n_orient: int | None = None,
 ) -> Reconstruction:
     """Run the filterpy subclass over the data, then filterpy's ``rts_smoother`` method.
 
@@ -102,19 +141,23 @@ def run(
     model : StateSpaceModel
     Y : ndarray, shape (n_channels, n_times)
     exponent : float
-    smoother : {None, "rts-standardized", "rts-state"}
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
         ``"rts-standardized"`` only without missing steps (the caller checks).
+    standardize : {"column", "position"}
+    n_orient : {1, 3} or None
+        Checked by the caller (``"position"`` needs it).
 
     Returns
     -------
     Reconstruction
     """
     (m, n), T = model.L.shape, Y.shape[1]
-    kf = StandardizedKalmanFilter(dim_x=n, dim_z=m, exponent=exponent)
+    kf = StandardizedKalmanFilter(n, m, exponent, standardize, n_orient or 1)
     kf.x, kf.P, kf.F = np.zeros((n, 1)), model.matrix("theta0").copy(), model.matrix("transition")
     kf.Q, kf.H, kf.R = model.matrix("q"), model.L, model.R
     f: dict[str, Any] = {key: np.empty((T, n)) for key in ("x_filt", "z", "w", "weights")}
     P_filt, f["P_pred_inv_sqrt"] = np.empty((T, n, n)), np.empty((T, n, n))
+    f["W"] = np.empty((T, *kf.weight_blocks.shape))
     f["missing"] = np.isnan(Y[0])
     log_likelihood = 0.0
     for t in range(T):
@@ -125,14 +168,31 @@ def run(
         except (np.linalg.LinAlgError, ValueError) as err:  # filterpy's S^-1, scipy's logpdf
             raise np.linalg.LinAlgError(f"at step {t + 1}: filterpy's update: {err}") from err
         f["x_filt"][t], f["z"][t] = kf.x.ravel(), kf.x_standardized
-        f["w"][t], f["weights"][t] = kf.raw_weights, kf.weights
+        f["w"][t], f["weights"][t], f["W"][t] = kf.raw_weights, kf.weights, kf.weight_blocks
         P_filt[t], f["P_pred_inv_sqrt"][t] = kf.P, kf.P_prior_inv_sqrt
     f["log_likelihood"] = log_likelihood
-    # both smoothers by filterpy's rts_smoother method, given the P_{t|t}  (docs/model.md §3)
+    # every smoother by filterpy's rts_smoother method, given the P_{t|t}  (docs/model.md §3)
     x, z = f["x_filt"], f["z"]
     if smoother == "rts-standardized":
         z = kf.rts_smoother(f["z"], P_filt)[0]
     elif smoother == "rts-state":
         x = kf.rts_smoother(f["x_filt"], P_filt)[0]
-        z = restandardize(f["w"], f["P_pred_inv_sqrt"], x, exponent)
-    return result(f, x, z, model, exponent, smoother, "filterpy")
+        z = restandardize_blocks(f["W"], f["P_pred_inv_sqrt"], x)
+    elif smoother == "rts-smoothed-weights":
+        x, P_smoothed, _, _ = kf.rts_smoother(f["x_filt"], P_filt)
+        Sigma = _prior_covariances(model.matrix("theta0"), kf.F, kf.Q, T)
+        z = standardize_smoothed(x, P_smoothed, Sigma, exponent, kf.weight_blocks.shape[-1])
+    return result(f, x, z, model, exponent, smoother, "filterpy", (standardize, n_orient))
+
+
+def _prior_covariances(
+    P0: NDArray[np.float64], F: NDArray[np.float64], Q: NDArray[np.float64], n_times: int
+) -> NDArray[np.float64]:
+    """``Sigma_t``, t = 1 .. T, by filterpy's ``predict`` from ``Sigma_0 = P_0``: the
+    covariance of ``x_t`` before any data (docs/model.md §3)."""
+    Sigma = np.empty((n_times, *P0.shape))
+    previous = P0
+    for t in range(n_times):
+        _, previous = filterpy_predict(np.zeros(len(P0)), previous, F=F, Q=Q)
+        Sigma[t] = previous
+    return Sigma

@@ -71,11 +71,21 @@ the same recursion on ``u`` (rank r): ``s_t = D V eta_t + V delta_t``, one produ
 first (``skf_ref.method._paths.spectral_rows``). The scalar ``beta_t`` never settles when
 ``a = 1`` (``c`` grows like ``t q``); it only enters these rank-r recursions.
 
+**Standardization per position, and the smoothed state over its own variance.** Both
+keep the forms above (docs/model.md §2-3): a position's block of ``Psi_t`` is
+``V_i Diag(omega_t) V_i^T`` (``skf_ref.method._paths.block_weights``; ``D V`` becomes
+``F V``, ``F`` the held blocks' powers, in the steady state and in the paper's smoother),
+and ``"rts-smoothed-weights"`` standardizes ``V xi^s_t / sigma_t^(1/2)`` by ``(V o V)
+omega^s_t`` or its blocks, with ``omega^s`` of every step from the RTS covariance recursion
+on span ``V`` (``skf_ref.method._paths.smoothed_weights``).
+
 The r x T recursions are kept time-major, (T, r). An output held in memory is time-major
 too, (T, n), handed out as its (n, T) transpose: the smoother's scalar recursion then runs
 along whole contiguous rows. Streamed blocks of rows are computed source-major, (k, T), as
 they are written.
 """
+
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -83,12 +93,16 @@ from numpy.typing import ArrayLike, NDArray
 from ..._utils.checks import InputError
 from .._model import StateSpaceModel
 from .._result import Reconstruction
-from .._settings import check_gaps
-from .._standardization import overflow_cause
+from .._settings import check_gaps, check_settings
+from .._standardization import check_positions_seen, overflow_cause
+from .block_weights import BlockStandardization
 from .recursions import Recursions
 from .singular_basis import SpectralBasis, log_likelihood
+from .smoothed_weights import smoothed_weights
 from .spectral_rows import SpectralRows
 from .weights import Standardization
+
+_Weights = Standardization | BlockStandardization
 
 __all__ = ["SpectralModel", "run"]
 
@@ -147,8 +161,9 @@ class SpectralModel:
         self.basis = SpectralBasis(model.L, model.R) if basis is None else basis
         self.U, self.s, self.V = self.basis.U, self.basis.s, self.basis.V
         self.recursions = self._recursions(None)
-        self._standardizations: dict[float, Standardization] = {}
-        self._gaps: tuple[bytes, Recursions, dict[float, Standardization]] | None = None
+        self._standardizations: dict[tuple[Any, ...], _Weights] = {}
+        self._seen: set[int] = set()  # the blocks checked by check_positions_seen
+        self._gaps: tuple[bytes, Recursions, dict[tuple[Any, ...], _Weights]] | None = None
 
     def _recursions(self, missing: NDArray[np.bool_] | None) -> Recursions:
         """The covariance recursion over ``n_times`` steps with these missing steps,
@@ -180,8 +195,12 @@ class SpectralModel:
         return len(self.s)
 
     def standardization(
-        self, exponent: float, missing: NDArray[np.bool_] | None = None
-    ) -> Standardization:
+        self,
+        exponent: float,
+        missing: NDArray[np.bool_] | None = None,
+        block: int = 1,
+        smoothed: bool = False,
+    ) -> _Weights:
         """The weights ``W_t^(alpha)`` of every source and step at ``exponent``, kept.
 
         Parameters
@@ -190,22 +209,38 @@ class SpectralModel:
         missing : ndarray of bool, shape (n_times,), optional
             The missing steps of the data (default none). The weights of the last pattern
             of missing steps are kept beside those of data without any.
+        block : {1, 3}
+            Columns standardized together: 1 (each column on its own) or 3 (a position
+            of free orientation, docs/model.md §2).
+        smoothed : bool
+            The weights of the smoothed state by its own variance
+            (``"rts-smoothed-weights"``, docs/model.md §3) in place of the filter's.
 
         Returns
         -------
-        Standardization
+        Standardization or BlockStandardization
         """
         recursions, kept = self._prepared(missing)
-        key = float(exponent)
+        key = (float(exponent), block, smoothed)
         if key not in kept:
-            kept[key] = Standardization(
-                self.V, recursions.omega, recursions.steady, self.n_times, key
-            )
+            omega, steady = recursions.omega, recursions.steady
+            if smoothed:  # every step its own weights: nothing is held
+                omega, steady = self._smoothed_weights(missing)[0], self.n_times
+            kind = BlockStandardization if block == 3 else Standardization
+            kept[key] = kind(self.V, omega, steady, self.n_times, float(exponent))
         return kept[key]
 
-    def _prepared(
-        self, missing: NDArray[np.bool_] | None
-    ) -> tuple[Recursions, dict[float, Standardization]]:
+    def _smoothed_weights(self, missing: NDArray[np.bool_] | None) -> tuple[Any, Any]:
+        """``omega^s`` (n_times, r) and ``1 / sigma_t`` (n_times,) of the smoothed state's
+        own variance (``skf_ref.method._paths.smoothed_weights``), kept."""
+        recursions, kept = self._prepared(missing)
+        if "smoothed" not in kept:
+            q, theta0 = self.model.scalar("q"), self.model.scalar("theta0")
+            assert q is not None and theta0 is not None  # isotropic
+            kept["smoothed"] = smoothed_weights(recursions, q, theta0)  # type: ignore[assignment]
+        return kept["smoothed"]  # type: ignore[return-value]
+
+    def _prepared(self, missing: NDArray[np.bool_] | None) -> tuple[Recursions, dict[Any, Any]]:
         """The recursion and the kept standardizations of data with these missing steps."""
         if missing is None or not missing.any():
             return self.recursions, self._standardizations
@@ -220,6 +255,8 @@ class SpectralModel:
         exponent: float,
         smoother: str | None,
         memory_limit: float | None = None,
+        standardize: str = "column",
+        n_orient: int | None = None,
     ) -> Reconstruction:
         """Filter and smooth data ``Y``; equal to ``skf_ref.method._paths.dense.run`` on the
         model.
@@ -229,11 +266,14 @@ class SpectralModel:
         Y : array_like, shape (n_channels, n_times)
             A column of NaN is a missing step (docs/model.md §2).
         exponent : float
-        smoother : {None, "rts-standardized", "rts-state"}
+        smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
             ``"rts-standardized"`` is refused over missing steps.
         memory_limit : float, optional
             Bytes an (n, T) output asked for in memory may take (default half the memory
             available then); streamed outputs need only a few blocks.
+        standardize : {"column", "position"}
+        n_orient : {1, 3}, optional
+            Columns per source position; ``"position"`` needs it (docs/model.md §2).
 
         Returns
         -------
@@ -246,6 +286,13 @@ class SpectralModel:
             raise InputError(f"Y must have shape ({m}, {T}), got {data.shape}")
         missing = np.isnan(data[0])  # check_data refused columns NaN in part
         check_gaps(smoother, missing)
+        settings = check_settings(
+            exponent, smoother, "spectral", standardize, n_orient, self.n_sources
+        )
+        block = settings.block
+        if block not in self._seen:  # every position's block regular (docs/model.md §2)
+            check_positions_seen(self.model.L, self.model.R, block)
+            self._seen.add(block)
         recursions, _ = self._prepared(missing)
         eta, rho_sq = self.basis.project(data)  # U^T y~ (T, r) and the data outside span U
         xi, quadratic, _ = recursions.filter_means(eta)
@@ -258,14 +305,19 @@ class SpectralModel:
             m,
             recursions.n_observed,
         )
+        smoothed = None
+        if smoother == "rts-smoothed-weights":
+            weights = self.standardization(exponent, missing, block, smoothed=True)
+            smoothed = (weights, self._smoothed_weights(missing)[1])
         rows = SpectralRows(
             self.V,
             self.a,
             recursions,
-            self.standardization(exponent, missing),
+            self.standardization(exponent, missing, block),
             xi,
             smoother,
             memory_limit=memory_limit,
+            smoothed=smoothed,
         )
         return Reconstruction(
             log_likelihood=float(total),
@@ -277,6 +329,8 @@ class SpectralModel:
             theta0=self.model.theta0,
             q=self.model.q,
             transition=self.model.transition,
+            standardize=settings.standardize,
+            n_orient=settings.n_orient,
             missing=missing,
             lazy=rows,
         )
@@ -288,6 +342,8 @@ def run(
     exponent: float,
     smoother: str | None,
     memory_limit: float | None = None,
+    standardize: str = "column",
+    n_orient: int | None = None,
 ) -> Reconstruction:
     """Filter and optionally smooth in the singular basis; equal to
     ``skf_ref.method._paths.dense.run``.
@@ -298,13 +354,16 @@ def run(
         Isotropic: see :class:`SpectralModel`.
     Y : ndarray, shape (n_channels, n_times)
     exponent : float
-    smoother : {None, "rts-standardized", "rts-state"}
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
     memory_limit : float, optional
         See :meth:`SpectralModel.apply`.
+    standardize : {"column", "position"}
+    n_orient : {1, 3}, optional
 
     Returns
     -------
     Reconstruction
         Its arrays are computed on first access.
     """
-    return SpectralModel(model, Y.shape[1]).apply(Y, exponent, smoother, memory_limit)
+    prepared = SpectralModel(model, Y.shape[1])
+    return prepared.apply(Y, exponent, smoother, memory_limit, standardize, n_orient)

@@ -34,6 +34,7 @@ from scipy.linalg import blas
 from ..._utils import memory
 from ..._utils.threads import map_threads
 from . import tiles
+from .block_weights import BlockStandardization
 from .recursions import Recursions, backward
 from .weights import Standardization
 
@@ -66,13 +67,18 @@ class SpectralRows:
         ``A = a I``.
     recursions : Recursions
         The covariance recursion of the data's steps (``skf_ref.method._paths.recursions``).
-    standardization : Standardization
-        Its weights at the exponent asked for.
+    standardization : Standardization or BlockStandardization
+        Its weights at the exponent asked for, per column or per position
+        (``skf_ref.method._paths.block_weights``).
     xi : ndarray, shape (n_times, r)
         Filtered singular coordinates ``V^T x_{t|t}``.
-    smoother : {None, "rts-standardized", "rts-state"}
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
     memory_limit : float, optional
         Bytes a whole output (:meth:`array`) may take; default half the memory available.
+    smoothed : (Standardization or BlockStandardization, ndarray), optional
+        For ``"rts-smoothed-weights"``: the standardization of the smoothed state by its
+        own variance and ``1 / sigma_t`` (n_times,), its whitening
+        (``skf_ref.method._paths.smoothed_weights``).
     """
 
     def __init__(
@@ -84,6 +90,7 @@ class SpectralRows:
         xi: NDArray[np.float64],
         smoother: str | None,
         memory_limit: float | None = None,
+        smoothed: tuple[Standardization | BlockStandardization, _Array] | None = None,
     ) -> None:
         self.V, self.a, self.xi = V, a, xi
         self.n_sources, self.n_times = self.V.shape[0], len(xi)
@@ -92,14 +99,23 @@ class SpectralRows:
         self.smoother, self.memory_limit = smoother, memory_limit
         self.standardization = standardization
         self.standardization.applications += 1
+        self.align = standardization.align  # rows standardized together
         self.recursions = recursions
         # P_{t|t-1}^{-1/2} x = V diag(p^{-1/2}) xi                      §2.2 (6)
         self.u = self._whitened(xi)
         self.xi_smoothed: Any = None
         self.u_smoothed: Any = None
-        if smoother == "rts-state":
+        # the standardization of the smoothed z: the filter's, or the smoothed state's own
+        self.smoothed_standardization = standardization
+        if smoother in ("rts-state", "rts-smoothed-weights"):
             self.xi_smoothed = recursions.smooth_state(xi)
+        if smoother == "rts-state":
             self.u_smoothed = self._whitened(self.xi_smoothed)
+        elif smoother == "rts-smoothed-weights":
+            assert smoothed is not None  # the caller gives it with this smoother
+            self.smoothed_standardization, inverse_sigma = smoothed
+            # Sigma_t^{-1/2} x^s_t = V xi^s_t / sigma_t^(1/2)         docs/model.md §3
+            self.u_smoothed = self.xi_smoothed * np.sqrt(inverse_sigma)[:, None]
         self._delta: Any = None
 
     # --- the LazyOutputs protocol -----------------------------------------------------------
@@ -120,7 +136,7 @@ class SpectralRows:
         :data:`SMOOTH_COLUMNS` rows or :data:`SMOOTH_BYTES`): one group in memory at once.
         """
         n, T = self.n_sources, self.n_times
-        step = tiles.row_count(T) if rows is None else rows
+        step = tiles.aligned(tiles.row_count(T), self.align) if rows is None else rows
         width = min(SMOOTH_COLUMNS, SMOOTH_BYTES // (8 * T))
         smoothed = name == "z" and self.smoother == "rts-standardized"
         group = step * max(1, width // step) if smoothed else step
@@ -145,8 +161,22 @@ class SpectralRows:
 
     def block(self, name: str, rows: slice, shared: Any = None) -> _Array:
         """Rows ``rows`` of output ``name``, (n_rows, n_times) C-ordered; ``shared`` is
-        :meth:`combine`'s result (computed here, by a pass over every row, when None)."""
-        return self._fill_block(name, rows, delta=shared).T
+        :meth:`combine`'s result (computed here, by a pass over every row, when None).
+
+        Rows standardized together (a position's, with the standardization per position)
+        are computed together: a block that cuts a position computes all of it."""
+        first, stop, _ = rows.indices(self.n_sources)
+        whole = self._whole(first, stop)
+        if whole == slice(first, stop):
+            return self._fill_block(name, whole, delta=shared).T
+        out = self._fill_block(name, whole, delta=shared).T
+        return np.ascontiguousarray(out[first - whole.start : stop - whole.start])
+
+    def _whole(self, first: int, stop: int) -> slice:
+        """The smallest run of whole positions (multiples of ``align``) around rows
+        ``first:stop``."""
+        k = self.align
+        return slice(first - first % k, min(self.n_sources, -(-stop // k) * k))
 
     def min_raw_weight(self) -> float:
         """The smallest raw weight over every source and observed step (only to explain a
@@ -203,17 +233,19 @@ class SpectralRows:
         """Output ``name`` (not the paper's smoothed z) of rows first:stop into ``target``."""
         if name in ("z", "z_filtered", "weights"):
             self.standardization.prepare()
+            self.smoothed_standardization.prepare()
 
         def tile(item: tuple[slice, slice]) -> None:
             rows, times = item
             self._tile(name, rows, times, target[rows.start - first : rows.stop - first, times])
 
-        for _ in map_threads(tile, tiles.tiles(first, stop, self.n_times, target)):
+        items = tiles.tiles(first, stop, self.n_times, target, self.align)
+        for _ in map_threads(tile, items):
             pass
 
     def _tile(self, name: str, rows: slice, times: slice, out: _Array) -> _Array:
         """Output ``name`` of ``rows`` at ``times`` into ``out`` (n_rows, n_steps)."""
-        if name == "x_filtered" or (name == "x" and self.smoother != "rts-state"):
+        if name == "x_filtered" or (name == "x" and self.xi_smoothed is None):
             return np.matmul(self.V[rows], self.xi[times].T, out=out)
         if name == "x":
             return np.matmul(self.V[rows], self.xi_smoothed[times].T, out=out)
@@ -227,21 +259,13 @@ class SpectralRows:
             if held:
                 out[:, held.start - times.start :] = self.standardization.scale(rows)
             return out
-        smoothed = name == "z" and self.smoother == "rts-state"
-        return self._standardized(self.u_smoothed if smoothed else self.u, rows, times, out)
+        if name == "z" and self.u_smoothed is not None:  # a state smoother's z^s_t
+            return self.smoothed_standardization.standardized(self.u_smoothed, rows, times, out)
+        return self._standardized(self.u, rows, times, out)
 
     def _standardized(self, u: _Array, rows: slice, times: slice, out: _Array) -> _Array:
         """``z_t = W_t^(alpha) V u_t`` of ``rows`` at ``times`` into ``out``.  §2.2 (6)-(7)"""
-        transient, held = tiles.split(times, self.steady)
-        V = self.V[rows]
-        if transient:
-            part = out[:, : transient.stop - transient.start]
-            np.matmul(V, u[transient].T, out=part)
-            part *= self.standardization.transient(rows, transient, np.empty_like(part))
-        if held:  # one product: z_t = (D V) u_t
-            part = out[:, held.start - times.start :]
-            np.matmul(V * self.standardization.scale(rows), u[held].T, out=part)
-        return out
+        return self.standardization.standardized(u, rows, times, out)
 
     # --- the paper's smoother ---------------------------------------------------------------
 
@@ -261,9 +285,8 @@ class SpectralRows:
         S = self.steady
         _, beta = self.recursions.gains
         h = time_major[: S + 1] if S < self.n_times else time_major
-        if S < self.n_times:  # the boundary h_S = D V eta_0
-            scale = self.standardization.scale(columns)[:, 0]
-            np.multiply(self.V[columns] @ eta[0], scale, out=h[S])
+        if S < self.n_times:  # the boundary h_S = D V eta_0 (F V eta_0 per position)
+            np.matmul(self.standardization.held_basis(columns), eta[0], out=h[S])
         backward(h, beta[: len(h) - 1], self.a, overwrite=True)
 
     def _corrected(self, rows: slice, times: slice, out: _Array, correction: _Array) -> _Array:
@@ -276,7 +299,7 @@ class SpectralRows:
             part = out[:, : transient.stop - transient.start]
             _add_product(part, V, correction[transient, r:])
         if held:
-            stacked = np.hstack([V * self.standardization.scale(rows), V])
+            stacked = np.hstack([self.standardization.held_basis(rows), V])
             np.matmul(stacked, correction[held].T, out=out[:, held.start - times.start :])
         return out
 
@@ -291,7 +314,7 @@ class SpectralRows:
             if S:
                 self._smooth_transient(where.T, rows, eta)
 
-        for _ in map_threads(rows_of, tiles.row_blocks(first, stop, S + 1)):
+        for _ in map_threads(rows_of, tiles.row_blocks(first, stop, S + 1, self.align)):
             pass
         self._correct(first, stop, target, correction)
 
@@ -304,7 +327,7 @@ class SpectralRows:
             where = target[rows.start - first : rows.stop - first, times]
             self._corrected(rows, times, where, correction)
 
-        for _ in map_threads(tile, tiles.tiles(first, stop, self.n_times, target)):
+        for _ in map_threads(tile, tiles.tiles(first, stop, self.n_times, target, self.align)):
             pass
 
     def projection(self, columns: slice, times: slice | None = None) -> _Array:
@@ -317,10 +340,15 @@ class SpectralRows:
         first, stop, _ = (slice(0, self.steady) if times is None else times).indices(self.n_times)
         self.standardization.prepare()
         share = np.zeros((stop - first, self.V.shape[1]))
-        for steps, rows in tiles.tiles_by_steps(*columns.indices(self.n_sources)[:2], first, stop):
+        asked = columns.indices(self.n_sources)[:2]
+        whole = self._whole(*asked)  # z of whole positions; the asked rows' share only
+        for steps, rows in tiles.tiles_by_steps(whole.start, whole.stop, first, stop, self.align):
             shape = (rows.stop - rows.start, steps.stop - steps.start)
             z = self._standardized(self.u, rows, steps, np.empty(shape))
-            share[steps.start - first : steps.stop - first] += z.T @ self.V[rows]
+            kept = slice(max(rows.start, asked[0]), min(rows.stop, asked[1]))
+            if kept.stop > kept.start:
+                mine = z[kept.start - rows.start : kept.stop - rows.start]
+                share[steps.start - first : steps.stop - first] += mine.T @ self.V[kept]
         return share
 
     def correction(self) -> _Array:
@@ -338,7 +366,9 @@ class SpectralRows:
             items = [
                 (rows, steps)
                 for steps in tiles.slices(0, S, tiles.PROJECTION_STEPS)
-                for rows in tiles.slices(0, self.n_sources, tiles.PROJECTION_COLUMNS)
+                for rows in tiles.slices(
+                    0, self.n_sources, tiles.aligned(tiles.PROJECTION_COLUMNS, self.align)
+                )
             ]
             shares = map_threads(lambda item: self.projection(*item), items)
             for (_, steps), share in zip(items, shares, strict=True):
@@ -408,7 +438,7 @@ class SpectralRows:
         eta = self._steady_means() if S < T else None
         zeta = np.zeros((S, self.V.shape[1]))
         if S:
-            items = tiles.tiles(0, n, S, result.T)
+            items = tiles.tiles(0, n, S, result.T, self.align)
 
             def transient(item: tuple[slice, slice]) -> _Array:  # z_{t|t}, its share of zeta
                 rows, times = item

@@ -3,7 +3,8 @@
 A tile is a block of rows (sources) by a block of steps of about :data:`BLOCK_BYTES`: small
 enough to stay in cache between the steps that touch it and for every core to share even
 small outputs (``skf_ref._utils.threads.map_threads``). Tiles of the same rows and steps are
-the same products whatever the number of threads.
+the same products whatever the number of threads. With the standardization per position
+(docs/model.md §2) a tile holds whole positions: its rows are multiples of ``align``.
 """
 
 from collections.abc import Iterator
@@ -17,6 +18,7 @@ __all__ = [
     "PROJECTION_COLUMNS",
     "PROJECTION_STEPS",
     "TIME_MAJOR_COLUMNS",
+    "aligned",
     "row_blocks",
     "row_count",
     "slices",
@@ -45,6 +47,17 @@ PROJECTION_STEPS = 8192
 _Array = NDArray[np.float64]
 
 
+def aligned(rows: int, align: int) -> int:
+    """``rows`` rounded down to a multiple of ``align`` (at least ``align``).
+
+    Examples
+    --------
+    >>> aligned(64, 3), aligned(2, 3), aligned(64, 1)
+    (63, 3, 64)
+    """
+    return max(align, rows - rows % align)
+
+
 def split(times: slice, steady: int) -> tuple[slice | None, slice | None]:
     """``times`` cut at ``steady``: the steps before it and from it on (None when empty)."""
     first, stop = times.start, times.stop
@@ -63,31 +76,35 @@ def row_count(n_steps: int) -> int:
     return max(1, BLOCK_BYTES // (8 * n_steps))
 
 
-def row_blocks(first: int, stop: int, n_steps: int) -> list[slice]:
-    """Row blocks of ``first:stop`` of about :data:`BLOCK_BYTES` at ``n_steps`` steps."""
-    return list(slices(first, stop, row_count(n_steps)))
+def row_blocks(first: int, stop: int, n_steps: int, align: int = 1) -> list[slice]:
+    """Row blocks of ``first:stop`` of about :data:`BLOCK_BYTES` at ``n_steps`` steps, each a
+    multiple of ``align`` rows."""
+    return list(slices(first, stop, aligned(row_count(n_steps), align)))
 
 
 def tiles(
-    first: int, stop: int, n_times: int, target: _Array | None = None
+    first: int, stop: int, n_times: int, target: _Array | None = None, align: int = 1
 ) -> list[tuple[slice, slice]]:
     """(rows, steps) tiles of rows ``first:stop`` x all steps, about BLOCK_BYTES each:
     whole rows when they fit MIN_BLOCK_COLUMNS at a time, else cut in steps too. In a
     time-major ``target`` (the transpose of an (n_times, n) array) a tile is
-    TIME_MAJOR_COLUMNS rows wide: each of its steps is one contiguous run of memory."""
+    TIME_MAJOR_COLUMNS rows wide: each of its steps is one contiguous run of memory. Rows
+    come in multiples of ``align`` (``first`` is one)."""
     rows = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * n_times))
     if target is not None and target.strides[0] < target.strides[1]:
         rows = TIME_MAJOR_COLUMNS
+    rows = aligned(rows, align)
     steps = max(1, BLOCK_BYTES // (8 * min(rows, max(1, stop - first))))
     return [(r, t) for r in slices(first, stop, rows) for t in slices(0, n_times, steps)]
 
 
 def tiles_by_steps(
-    first: int, stop: int, step_first: int, step_stop: int
+    first: int, stop: int, step_first: int, step_stop: int, align: int = 1
 ) -> Iterator[tuple[slice, slice]]:
-    """(steps, rows) tiles of the steps ``step_first:step_stop``, steps outermost."""
+    """(steps, rows) tiles of the steps ``step_first:step_stop``, steps outermost; rows in
+    multiples of ``align``."""
     n = step_stop - step_first
-    width = max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * max(1, min(n, 8192))))
+    width = aligned(max(MIN_BLOCK_COLUMNS, BLOCK_BYTES // (8 * max(1, min(n, 8192)))), align)
     for steps in slices(step_first, step_stop, 8192):
         for rows in slices(first, stop, width):
             yield steps, rows

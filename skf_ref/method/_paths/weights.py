@@ -3,6 +3,12 @@
 They depend on the model and the exponent only, not on the data: ``w_t = (V o V) omega_t``
 (docs/model.md §2, §2.2 eq. (7)), one number a row from the steady state on. A model
 applied to many data sets keeps those of the steps before it (:data:`CACHE_BYTES`).
+
+:class:`Standardization` is the column form; ``skf_ref.method._paths.block_weights`` holds
+the standardization per position, with the same methods: :meth:`~Standardization.
+standardized` (``z_t = W_t^(alpha) V u_t`` of any rows and steps), :meth:`~Standardization.
+held_basis` (``W V`` in the steady state), the weights themselves (``transient``,
+``scale``) and the raw weights for a diagnosis.
 """
 
 from typing import Any
@@ -39,6 +45,9 @@ class Standardization:
     n_times : int
     exponent : float
     """
+
+    #: Rows standardized together: one (each column on its own).
+    align = 1
 
     def __init__(
         self, V: _Array, omega: _Array, steady: int, n_times: int, exponent: float
@@ -106,6 +115,24 @@ class Standardization:
         """The held weights of ``rows``, (n_rows, 1): ``W^(alpha)`` from ``steady`` on."""
         return self._scale[rows, None]
 
+    def held_basis(self, rows: slice) -> _Array:
+        """``D V`` at ``rows``, (n_rows, r): ``z_t = (D V) u_t`` from ``steady`` on."""
+        return self.V[rows] * self._scale[rows, None]
+
+    def standardized(self, u: _Array, rows: slice, times: slice, out: _Array) -> _Array:
+        """``z_t = W_t^(alpha) V u_t`` of ``rows`` at ``times`` into ``out`` (n_rows,
+        n_steps), for whitened coordinates ``u`` (n_times, r).  §2.2 (6)-(7)"""
+        transient, held = tiles.split(times, self.steady)
+        V = self.V[rows]
+        if transient:
+            part = out[:, : transient.stop - transient.start]
+            np.matmul(V, u[transient].T, out=part)
+            part *= self.transient(rows, transient, np.empty_like(part))
+        if held:  # one product: z_t = (D V) u_t
+            part = out[:, held.start - times.start :]
+            np.matmul(self.held_basis(rows), u[held].T, out=part)
+        return out
+
     def raw(self, rows: slice, times: slice) -> _Array:
         """Raw weights ``w_t`` of ``rows`` at any steps, (n_rows, n_steps), for a diagnosis."""
         first, stop, _ = times.indices(self.n_times)
@@ -116,5 +143,5 @@ class Standardization:
         """``V^T D V`` (r, r): ``zeta_t = V^T z_t`` from ``u_t`` in the steady state."""
         if self._projector is None:
             self.prepare()
-            self._projector = (self.V * self._scale[:, None]).T @ self.V
+            self._projector = self.held_basis(slice(None)).T @ self.V
         return self._projector
