@@ -160,11 +160,20 @@ def test_criteria_name_every_error_beyond_elorettas_margin():
     assert [key for key, _, _ in judged.worse] == [("deep_error", 20.0)]
 
 
-def test_the_candidates_are_the_64_settings_once_issue_33s_options_exist():
-    everything = design.candidates(design.SMOOTHERS, design.STANDARDIZATIONS)
-    assert len(everything) == 64 == len(set(everything))
-    today = design.candidates(("none", "rts-standardized", "rts-state"), ("column",))
-    assert len(today) == 24
+def test_the_candidates_are_the_64_settings_and_the_package_runs_each():
+    from validation.reproduce.worth.skf import Prepared
+
+    everything = design.candidates()
+    assert len(everything) == 64 == len({s.key for s in everything})
+    assert set(design.NAMED.values()) <= set(everything)
+    rng = np.random.default_rng(34)
+    L = rng.standard_normal((8, 12))  # 4 positions x 3 orientations
+    Y = rng.standard_normal((8, 5))
+    for priors in design.CANDIDATE_PRIORS:
+        prepared = Prepared(L, priors, 5)
+        for setting in (s for s in everything if s.priors == priors):
+            z = prepared.z(Y, setting)
+            assert z.shape == (12, 5) and np.isfinite(z).all(), setting.label
 
 
 def test_static_methods_keys_and_labels_are_distinct():

@@ -129,7 +129,7 @@ def null_levels(head, methods, sigma, cortical_wave, peak_index, *, n_noise=100,
     positions = rng.choice(cortex, size=n_cortical, replace=False)
     sources = draw_sources(head, positions, seed=int(rng.integers(2**31)), n_orientations=1)
     wave = np.asarray(cortical_wave, dtype=float)
-    levels = {name: ([], []) for name in methods}
+    levels: dict[str, tuple[list[float], list[float]]] = {name: ([], []) for name in methods}
     for k in range(n_noise + n_cortical):
         Y = sigma * rng.standard_normal((head.n_channels, len(wave)))
         if k >= n_noise:

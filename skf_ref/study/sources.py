@@ -318,7 +318,7 @@ def draw_sources(head, positions, seed, n_orientations=3):
         free[:, todo[kept]] = gains[:, kept]
         retry = todo[~kept]
         points[retry] = _points_in_cells(head, positions[retry], labels[retry], rng)
-    on_grid = ~free.any(axis=(0, 2))
+    on_grid = np.asarray(~free.any(axis=(0, 2)), dtype=bool)
     points[on_grid] = head.positions[positions[on_grid]]
     if on_grid.any():
         free[:, on_grid] = exact_gains(head, points[on_grid])[0][:, :]

@@ -161,14 +161,13 @@ NAMED = {
 }
 
 
-def candidates(available_smoothers, available_standardizations):
-    """The SKF candidates the package can run now (all 64 once issue 33's options exist)."""
+def candidates():
+    """The 64 SKF candidates: exponent x smoother x standardization x priors."""
     return [
         SKFSetting(exponent, smoother, standardize, ep, pm)
         for exponent, smoother, standardize, (ep, pm) in product(
             EXPONENTS, SMOOTHERS, STANDARDIZATIONS, CANDIDATE_PRIORS
         )
-        if smoother in available_smoothers and standardize in available_standardizations
     ]
 
 

@@ -33,7 +33,6 @@ from .design import (
     candidates,
 )
 from .runs import irmxne_runs, lcmv_runs, run_irmxne, run_lcmv, run_tuned, tuned_runs
-from .skf import available
 from .tasks import run_file, run_linear
 
 __all__ = ["FOLDER", "Worth", "run_worth"]
@@ -332,7 +331,7 @@ def run_worth(settings, out, n_jobs=1, testing_data=None, cache_dir=None, fresh=
     cell = next(c for c in CELLS if c.name == name)
     kwargs = head_kwargs(cell, settings, testing_data, cache_dir)
     study = make_study(make_head(**kwargs), kwargs, sizes)
-    skf = candidates(*available())
+    skf = candidates()
     if not sizes.all_candidates:
         skf = [s for s in skf if s in NAMED.values()]
     folder = Path(out) / FOLDER

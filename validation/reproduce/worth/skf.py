@@ -8,11 +8,9 @@ setting's exponent, smoother and standardization.
 
 from __future__ import annotations
 
-import inspect
-
 import numpy as np
 
-__all__ = ["Prepared", "available"]
+__all__ = ["Prepared"]
 
 
 def _spectral_model():
@@ -33,16 +31,6 @@ def _basis(L):
         _BASES.clear()  # one lead field at a time: a process holds one head
         _BASES[key] = (L, SpectralBasis(L, np.eye(L.shape[0])))
     return _BASES[key][1]
-
-
-def available():
-    """The smoothers and standardizations the package offers (issue 33 adds two)."""
-    from skf_ref.method._settings import SMOOTHERS  # the smoothers this version offers
-
-    smoothers = ["none", *(s for s in SMOOTHERS if s is not None)]
-    parameters = inspect.signature(_spectral_model().apply).parameters
-    standardizations = ["column", "position"] if "standardize" in parameters else ["column"]
-    return tuple(smoothers), tuple(standardizations)
 
 
 class Prepared:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .design import DESIGNS, NAMED, SNRS, STATIC_METHODS, Static
+from .design import DESIGNS, SNRS, STATIC_METHODS, Static
 from .tables import NOISE_FREE, cell, lookup, markdown_table, snr_name
 
 __all__ = [
@@ -251,9 +251,4 @@ def named_list(worth):
     lines = []
     for name in sorted(worth.named):
         lines.append(f"- **{name}**: {worth.label(worth.named[name])}")
-    missing = [n for n in NAMED if n not in worth.named]
-    if missing:
-        lines.append(
-            f"- {', '.join(missing)}: not run (issue 33's options are not in this version)"
-        )
     return "\n".join(lines)
