@@ -139,3 +139,27 @@ def test_null_levels_feed_every_method_the_same_null_runs():
                         seed=2)  # fmt: skip
     assert np.array_equal(again["a"][1], cortical)
     assert cortical.mean() > noise.mean()  # a cortical source spreads into the thalamus
+
+
+def test_calibrate_gives_each_method_its_own_threshold_in_its_own_units():
+    from skf_ref.study.detection import calibrate, null_levels
+    from skf_ref.study.head import make_head
+    from skf_ref.study.resolution import position_amplitudes as amplitudes
+    from skf_ref.study.scenario import p20n20_scenario, simulate
+
+    head = make_head("sphere", "anatomical", spacing_mm=12.0)
+    sim = simulate(head, p20n20_scenario(), 20.0, 0)
+
+    def backprojection(Y):
+        return amplitudes(head.leadfield.T @ Y)
+
+    methods = {"a": backprojection, "b": lambda Y: 3.0 * backprojection(Y)}
+    thresholds = calibrate(head, sim, methods, n_runs=20, seed=5)
+    assert thresholds["b"] == pytest.approx(3 * thresholds["a"], rel=1e-12)
+    peak = int(sim.truth.peak_indices[0])
+    levels = null_levels(head, methods, sim.sigma, sim.truth.waveforms[1], peak, n_noise=20,
+                         n_cortical=20, seed=5)  # fmt: skip
+    for kind in levels["a"]:
+        assert np.mean(kind > thresholds["a"]) <= FALSE_DETECTION_RATE
+    with pytest.raises(InputError, match="n_runs"):
+        calibrate(head, sim, methods, n_runs=0)

@@ -12,7 +12,8 @@ produce (with the same head, method and noise level):
   position and orientation), each taken as an order statistic, so that at most 5 % of every
   kind of null run exceeds it;
 - a run detects a thalamic source when its statistic exceeds the threshold;
-- :func:`null_levels` simulates the null runs for a head, a noise level and any methods.
+- :func:`null_levels` simulates the null runs for a head, a noise level and any methods;
+  :func:`calibrate` turns them into each method's threshold for one simulated data set.
 
 The threshold holds only for the head, method, setting and noise level it was calibrated
 with: amplitudes are in each method's own units.
@@ -24,7 +25,13 @@ import numpy as np
 
 from .._utils.checks import InputError, check_real
 
-__all__ = ["FALSE_DETECTION_RATE", "null_levels", "null_threshold", "thalamic_level"]
+__all__ = [
+    "FALSE_DETECTION_RATE",
+    "calibrate",
+    "null_levels",
+    "null_threshold",
+    "thalamic_level",
+]
 
 #: The share of null runs a threshold lets through (at most), per kind of null.
 FALSE_DETECTION_RATE = 0.05
@@ -138,3 +145,40 @@ def null_levels(head, methods, sigma, cortical_wave, peak_index, *, n_noise=100,
             level = thalamic_level(method(Y)[:, peak_index], thalamus)
             levels[name][int(k >= n_noise)].append(float(level))
     return {name: tuple(np.array(v) for v in pair) for name, pair in levels.items()}
+
+
+def calibrate(head, sim, methods, *, n_runs=50, seed=0):
+    """Each method's threshold on the thalamus' level, for the head and noise of ``sim``.
+
+    The null runs (:func:`null_levels`, ``n_runs`` of each kind) have the noise level of
+    ``sim`` and its superficial source's waveform, read at the deep source's peak sample.
+
+    Parameters
+    ----------
+    head : HeadModel
+        A cortex + thalamus head.
+    sim : Simulation
+        The P20/N20 data set the thresholds are for (:func:`~.scenario.simulate`).
+    methods : dict
+        Name -> callable taking data (n_channels, n_times) in volts and returning the
+        position amplitude (n_positions, n_times).
+    n_runs : int
+        Null runs of each kind: with 5 %, ``n_runs >= 20`` puts the threshold below the
+        largest null level.
+    seed : int
+        Seed of the null runs (positions, orientations, noise).
+
+    Returns
+    -------
+    dict
+        Name -> threshold (:func:`null_threshold`): a run detects when its level exceeds it.
+    """
+    from .._utils.checks import check_int
+
+    n_runs = check_int("n_runs", n_runs, minimum=1)
+    peak = int(sim.truth.peak_indices[0])
+    levels = null_levels(
+        head, methods, sim.sigma, sim.truth.waveforms[1], peak, n_noise=n_runs,
+        n_cortical=n_runs, seed=seed,
+    )  # fmt: skip
+    return {name: null_threshold(*pair) for name, pair in levels.items()}
