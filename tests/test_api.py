@@ -134,6 +134,7 @@ PUBLIC_API = {
     },
     "skf_ref.study.detection": {
         "FALSE_DETECTION_RATE",
+        "calibrate",
         "null_levels",
         "null_threshold",
         "thalamic_level",

@@ -21,9 +21,20 @@ with: amplitudes are in each method's own units.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._utils.checks import InputError, check_real
+
+if TYPE_CHECKING:
+    from .head import HeadModel
+    from .scenario import Simulation
+
+#: A method: data (n_channels, n_times) in volts -> position amplitudes (n_positions, n_times).
+Method = Callable[[np.ndarray], np.ndarray]
 
 __all__ = [
     "FALSE_DETECTION_RATE",
@@ -37,7 +48,7 @@ __all__ = [
 FALSE_DETECTION_RATE = 0.05
 
 
-def null_threshold(*nulls, rate=FALSE_DETECTION_RATE):
+def null_threshold(*nulls: ArrayLike, rate: float = FALSE_DETECTION_RATE) -> float:
     """The largest of the nulls' ``1 - rate`` quantiles (order statistics, never interpolated).
 
     Parameters
@@ -69,7 +80,7 @@ def null_threshold(*nulls, rate=FALSE_DETECTION_RATE):
     return float(max(levels))
 
 
-def thalamic_level(amplitude, thalamus):
+def thalamic_level(amplitude: ArrayLike, thalamus: ArrayLike) -> Any:
     """The maximum amplitude over the thalamus' positions (the detection statistic).
 
     Parameters
@@ -96,8 +107,17 @@ def thalamic_level(amplitude, thalamus):
     return amplitude[thalamus].max(axis=0)
 
 
-def null_levels(head, methods, sigma, cortical_wave, peak_index, *, n_noise=100,
-                n_cortical=100, seed=0):  # fmt: skip
+def null_levels(
+    head: HeadModel,
+    methods: Mapping[str, Method],
+    sigma: float,
+    cortical_wave: ArrayLike,
+    peak_index: int,
+    *,
+    n_noise: int = 100,
+    n_cortical: int = 100,
+    seed: int = 0,
+) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]:
     """The statistic over null runs simulated for a head, noise level and set of methods.
 
     Null runs: ``n_noise`` data sets of white noise alone, and ``n_cortical`` with one
@@ -144,10 +164,19 @@ def null_levels(head, methods, sigma, cortical_wave, peak_index, *, n_noise=100,
         for name, method in methods.items():
             level = thalamic_level(method(Y)[:, peak_index], thalamus)
             levels[name][int(k >= n_noise)].append(float(level))
-    return {name: tuple(np.array(v) for v in pair) for name, pair in levels.items()}
+    return {
+        name: (np.array(noise), np.array(cortical)) for name, (noise, cortical) in levels.items()
+    }
 
 
-def calibrate(head, sim, methods, *, n_runs=50, seed=0):
+def calibrate(
+    head: HeadModel,
+    sim: Simulation,
+    methods: Mapping[str, Method],
+    *,
+    n_runs: int = 50,
+    seed: int = 0,
+) -> dict[str, float]:
     """Each method's threshold on the thalamus' level, for the head and noise of ``sim``.
 
     The null runs (:func:`null_levels`, ``n_runs`` of each kind) have the noise level of

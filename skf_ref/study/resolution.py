@@ -18,13 +18,14 @@ counterparts, at one time, of :mod:`skf_ref.study.metrics` (same definitions):
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._utils.checks import InputError
 
 __all__ = ["level_db", "peak_errors", "position_amplitudes", "spatial_dispersion"]
 
 
-def position_amplitudes(z, n_orient=3):
+def position_amplitudes(z: ArrayLike, n_orient: int = 3) -> NDArray[np.float64]:
     """Norm of each position's components: (n_positions * n_orient, ...) -> (n_positions, ...).
 
     Examples
@@ -40,10 +41,12 @@ def position_amplitudes(z, n_orient=3):
     return np.sqrt(np.square(blocks).sum(axis=1))
 
 
-def _check(amplitude, positions, points):
-    amplitude = np.asarray(amplitude, dtype=float)
-    positions = np.asarray(positions, dtype=float)
-    points = np.asarray(points, dtype=float)
+def _check(
+    amplitude_: ArrayLike, positions_: ArrayLike, points_: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    amplitude = np.asarray(amplitude_, dtype=float)
+    positions = np.asarray(positions_, dtype=float)
+    points = np.asarray(points_, dtype=float)
     if amplitude.ndim != 2 or amplitude.shape[0] != len(positions):
         raise InputError(
             f"amplitude must have shape (n_positions, n_runs) = ({len(positions)}, n_runs), "
@@ -56,7 +59,9 @@ def _check(amplitude, positions, points):
     return amplitude, positions, points
 
 
-def peak_errors(amplitude, positions, points):
+def peak_errors(
+    amplitude: ArrayLike, positions: ArrayLike, points: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """Distance (mm) from each run's source to the position of its maximum.
 
     Parameters
@@ -78,13 +83,15 @@ def peak_errors(amplitude, positions, points):
     >>> peak_errors(np.array([[1.0, 3.0], [3.0, 1.0]]), positions, np.zeros((2, 3)))
     (array([20.,  0.]), array([1, 0]))
     """
-    amplitude, positions, points = _check(amplitude, positions, points)
-    peak = amplitude.argmax(axis=0)
-    errors = np.linalg.norm(positions[peak] - points, axis=1) * 1e3
-    return np.where(amplitude.max(axis=0) > 0, errors, np.nan), peak
+    a, grid, x = _check(amplitude, positions, points)
+    peak = a.argmax(axis=0)
+    errors = np.linalg.norm(grid[peak] - x, axis=1) * 1e3
+    return np.where(a.max(axis=0) > 0, errors, np.nan), peak
 
 
-def spatial_dispersion(amplitude, positions, points):
+def spatial_dispersion(
+    amplitude: ArrayLike, positions: ArrayLike, points: ArrayLike
+) -> NDArray[np.float64]:
     """Spatial dispersion (mm): the amplitude-weighted RMS distance from the source.
 
     ``SD = sqrt(sum_p a_p^2 d_p^2 / sum_p a_p^2)``; NaN for an all-zero run.
@@ -95,18 +102,16 @@ def spatial_dispersion(amplitude, positions, points):
     >>> spatial_dispersion(np.array([[1.0], [1.0]]), positions, np.zeros((1, 3)))
     array([7.07106781])
     """
-    amplitude, positions, points = _check(amplitude, positions, points)
-    power = amplitude**2
+    a, grid, x = _check(amplitude, positions, points)
+    power = a**2
     total = power.sum(axis=0)
-    squared = ((positions**2).sum(axis=1)[:, None] - 2 * positions @ points.T) + (points**2).sum(
-        axis=1
-    )[None]
+    squared = ((grid**2).sum(axis=1)[:, None] - 2 * grid @ x.T) + (x**2).sum(axis=1)[None]
     spread = np.einsum("pr,pr->r", power, np.maximum(squared, 0.0))
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(total > 0, np.sqrt(spread / total) * 1e3, np.nan)
 
 
-def level_db(amplitude, mask):
+def level_db(amplitude: ArrayLike, mask: ArrayLike) -> NDArray[np.float64]:
     """The maximum over the positions of ``mask`` re. the maximum over all, in dB, per run.
 
     0 dB: the set holds the map's maximum; ``-inf``: the set is empty of activity.

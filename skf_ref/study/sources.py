@@ -16,11 +16,16 @@ solution at that point (:func:`exact_gains`), average referenced.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._utils.checks import InputError, check_int
 from .head._model import apply_affine
+
+if TYPE_CHECKING:
+    from .head import HeadModel
 
 __all__ = [
     "STRUCTURES",
@@ -41,7 +46,7 @@ FORWARD_ROUNDS = 10
 _SIDES = ("Left", "Right")
 
 
-def position_labels(head):
+def position_labels(head: HeadModel) -> NDArray[np.str_]:
     """The anatomical label of every position of a cortex + thalamus head.
 
     Parameters
@@ -68,10 +73,11 @@ def position_labels(head):
             f"head must have the cortex + thalamus source space (source_space='anatomical'), "
             f"got {head.source_space!r}"
         )
-    names = [s.get("seg_name") for s in head.fwd["src"]]
-    if all(names):
+    src = head.fwd["src"] if head.fwd is not None else []
+    names = [s.get("seg_name") for s in src]
+    if src and all(names):
         return np.concatenate(
-            [np.full(s["nuse"], name) for s, name in zip(head.fwd["src"], names, strict=True)]
+            [np.full(s["nuse"], name) for s, name in zip(src, names, strict=True)]
         )
     return _sphere_labels(head)
 
@@ -90,7 +96,7 @@ def _sphere_labels(head):
     )
 
 
-def position_structures(head):
+def position_structures(head: HeadModel) -> NDArray[np.str_]:
     """``"thalamus"`` or ``"cortex"`` for every position of a cortex + thalamus head.
 
     Returns
@@ -101,7 +107,7 @@ def position_structures(head):
     return np.where(np.char.endswith(labels, "Thalamus"), STRUCTURES[1], STRUCTURES[0])
 
 
-def random_rotation(rng):
+def random_rotation(rng: np.random.Generator) -> NDArray[np.float64]:
     """A uniformly random 3 x 3 rotation: its rows are three orthonormal orientations.
 
     QR of a standard normal matrix with the signs fixed so that R has a positive diagonal
@@ -151,11 +157,12 @@ class Sources:
     def __len__(self):
         return len(self.position)
 
-    def take(self, index):
+    def take(self, index: ArrayLike) -> Sources:
         """The sources at ``index`` (an int array or a boolean mask), as :class:`Sources`."""
-        parts = {name: np.asarray(getattr(self, name))[index] for name in _FIELDS[:4]}
-        parts["gain"] = self.gain[:, index]
-        parts["on_grid"] = self.on_grid[index]
+        at = np.asarray(index)
+        parts = {name: np.asarray(getattr(self, name))[at] for name in _FIELDS[:4]}
+        parts["gain"] = self.gain[:, at]
+        parts["on_grid"] = self.on_grid[at]
         return Sources(**{name: readonly(value) for name, value in parts.items()})
 
 
@@ -169,7 +176,9 @@ def readonly(value):
     return array
 
 
-def exact_gains(head, points, orientations=None):
+def exact_gains(
+    head: HeadModel, points: ArrayLike, orientations: ArrayLike | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """MNE's forward field of dipoles at arbitrary points, and which points it kept.
 
     Parameters
@@ -273,7 +282,9 @@ def _points_in_cells(head, positions, labels, rng):
     return points
 
 
-def draw_sources(head, positions, seed, n_orientations=3):
+def draw_sources(
+    head: HeadModel, positions: ArrayLike, seed: int, n_orientations: int = 3
+) -> Sources:
     """Exact dipoles in the cells of grid positions, with random orthonormal orientations.
 
     For each position (in the order given): a uniformly random rotation (its first

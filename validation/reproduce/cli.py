@@ -101,7 +101,11 @@ def _parser():
         description="Reproduce the paper's findings with fixed decision rules; write "
         "REPORT.md, figures and the sweep tables.",
     )
-    parser.add_argument("--quick", action="store_true", help="3 seeds, ~1000 positions, 20 dB map")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="a smoke run: 2 seeds, 500 positions, 12 mm grids, tiny sets (not evidence)",
+    )
     parser.add_argument(
         "--out",
         type=Path,
