@@ -88,10 +88,12 @@ def thalamic_level(amplitude: ArrayLike, thalamus: ArrayLike) -> Any:
     amplitude : ndarray, shape (n_positions,) or (n_positions, n_runs)
         Position amplitudes at the thalamic peak time.
     thalamus : ndarray of bool, shape (n_positions,)
+        The thalamus' positions, at least one.
 
     Returns
     -------
     float or ndarray, shape (n_runs,)
+        The largest amplitude over the thalamus (of each run).
 
     Examples
     --------

@@ -1,10 +1,11 @@
-"""Resolution metrics of many single-source estimates at once: where the maximum lies, how far
-the estimate spreads, and how much of it reaches the thalamus.
+"""Resolution metrics of many single-source estimates at once.
 
-Every function takes ``amplitude``, shape (n_positions, n_runs): the position amplitudes of
-many estimates at one time each (one column per run: the norm of a position's components,
-:func:`position_amplitudes`), the grid ``positions`` (n_positions, 3) and the runs' exact
-source points (n_runs, 3), in metres; distances come out in mm. They are the vectorized
+Where the maximum lies, how far the estimate spreads, and how much of it reaches the
+thalamus. Every function takes ``amplitude``, shape (n_positions, n_runs): the position
+amplitudes of many estimates at one time each (one column per run: the norm of a position's
+components, :func:`position_amplitudes`), the grid ``positions`` (n_positions, 3) and the
+runs' exact source points (n_runs, 3), in metres; distances come out in mm. They are the
+vectorized
 counterparts, at one time, of :mod:`skf_ref.study.metrics` (same definitions):
 
 - :func:`peak_errors`: distance from the source to the position of the maximum;
@@ -27,6 +28,18 @@ __all__ = ["level_db", "peak_errors", "position_amplitudes", "spatial_dispersion
 
 def position_amplitudes(z: ArrayLike, n_orient: int = 3) -> NDArray[np.float64]:
     """Norm of each position's components: (n_positions * n_orient, ...) -> (n_positions, ...).
+
+    Parameters
+    ----------
+    z : array_like, shape (n_positions * n_orient, ...)
+        Components, position-major (a position's ``n_orient`` rows together).
+    n_orient : int
+        Components per position.
+
+    Returns
+    -------
+    ndarray, shape (n_positions, ...)
+        The Euclidean norm over each position's components.
 
     Examples
     --------
@@ -67,8 +80,11 @@ def peak_errors(
     Parameters
     ----------
     amplitude : ndarray, shape (n_positions, n_runs)
+        Position amplitudes, one column per run (:func:`position_amplitudes`).
     positions : ndarray, shape (n_positions, 3)
+        The grid, m.
     points : ndarray, shape (n_runs, 3)
+        Each run's exact source point, m.
 
     Returns
     -------
@@ -96,6 +112,20 @@ def spatial_dispersion(
 
     ``SD = sqrt(sum_p a_p^2 d_p^2 / sum_p a_p^2)``; NaN for an all-zero run.
 
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions, n_runs)
+        Position amplitudes, one column per run (:func:`position_amplitudes`).
+    positions : ndarray, shape (n_positions, 3)
+        The grid, m.
+    points : ndarray, shape (n_runs, 3)
+        Each run's exact source point, m.
+
+    Returns
+    -------
+    ndarray, shape (n_runs,)
+        The dispersion of each run, mm.
+
     Examples
     --------
     >>> positions = np.array([[0.0, 0, 0], [0.01, 0, 0]])
@@ -115,6 +145,18 @@ def level_db(amplitude: ArrayLike, mask: ArrayLike) -> NDArray[np.float64]:
     """The maximum over the positions of ``mask`` re. the maximum over all, in dB, per run.
 
     0 dB: the set holds the map's maximum; ``-inf``: the set is empty of activity.
+
+    Parameters
+    ----------
+    amplitude : ndarray, shape (n_positions, n_runs)
+        Position amplitudes, one column per run.
+    mask : ndarray of bool, shape (n_positions,)
+        The set of positions (e.g. the thalamus'), at least one.
+
+    Returns
+    -------
+    ndarray, shape (n_runs,)
+        The level of each run, dB.
 
     Examples
     --------

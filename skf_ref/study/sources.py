@@ -99,9 +99,15 @@ def _sphere_labels(head):
 def position_structures(head: HeadModel) -> NDArray[np.str_]:
     """``"thalamus"`` or ``"cortex"`` for every position of a cortex + thalamus head.
 
+    Parameters
+    ----------
+    head : HeadModel
+        ``source_space="anatomical"`` (:func:`position_labels`).
+
     Returns
     -------
     ndarray of str, shape (n_positions,)
+        Each position's structure, from its label.
     """
     labels = position_labels(head)
     return np.where(np.char.endswith(labels, "Thalamus"), STRUCTURES[1], STRUCTURES[0])
@@ -113,6 +119,16 @@ def random_rotation(rng: np.random.Generator) -> NDArray[np.float64]:
     QR of a standard normal matrix with the signs fixed so that R has a positive diagonal
     (Haar measure on the orthogonal group), and one row flipped if needed so the
     determinant is +1.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator drawn from (nine standard normal numbers).
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        A rotation matrix (orthonormal rows, determinant +1).
 
     Examples
     --------
@@ -131,7 +147,9 @@ def random_rotation(rng: np.random.Generator) -> NDArray[np.float64]:
 class Sources:
     """Exact dipoles drawn near grid positions (n = positions x orientations).
 
-    Attributes
+    Made by :func:`draw_sources`; each parameter is an attribute of the same name.
+
+    Parameters
     ----------
     position : ndarray of int, shape (n,)
         The grid position each source was drawn near (its cell).
@@ -158,7 +176,18 @@ class Sources:
         return len(self.position)
 
     def take(self, index: ArrayLike) -> Sources:
-        """The sources at ``index`` (an int array or a boolean mask), as :class:`Sources`."""
+        """The sources at ``index``, as :class:`Sources`.
+
+        Parameters
+        ----------
+        index : array_like of int or bool, shape (k,) or (n,)
+            Indices, or a boolean mask over the sources.
+
+        Returns
+        -------
+        Sources
+            Those sources, read-only.
+        """
         at = np.asarray(index)
         parts = {name: np.asarray(getattr(self, name))[at] for name in _FIELDS[:4]}
         parts["gain"] = self.gain[:, at]
@@ -184,6 +213,7 @@ def exact_gains(
     Parameters
     ----------
     head : HeadModel
+        A head with MNE's forward model (its BEM or sphere, sensors and transforms).
     points : ndarray, shape (n, 3)
         Head coordinates, m.
     orientations : ndarray, shape (n, 3), optional
