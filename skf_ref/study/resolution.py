@@ -5,8 +5,7 @@ thalamus. Every function takes ``amplitude``, shape (n_positions, n_runs): the p
 amplitudes of many estimates at one time each (one column per run: the norm of a position's
 components, :func:`position_amplitudes`), the grid ``positions`` (n_positions, 3) and the
 runs' exact source points (n_runs, 3), in metres; distances come out in mm. They are the
-vectorized
-counterparts, at one time, of :mod:`skf_ref.study.metrics` (same definitions):
+vectorized counterparts, at one time, of :mod:`skf_ref.study.metrics` (same definitions):
 
 - :func:`peak_errors`: distance from the source to the position of the maximum;
 - :func:`spatial_dispersion`: ``sqrt(sum_p a_p^2 d_p^2 / sum_p a_p^2)`` (Molins et al. 2008,
