@@ -127,6 +127,7 @@ PUBLIC_API = {
     },
     "skf_ref.study.demo": {
         "DATA",
+        "DETECTION_COLUMNS",
         "Demo",
         "HEADS",
         "OUTPUTS",

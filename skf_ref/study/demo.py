@@ -46,7 +46,7 @@ if TYPE_CHECKING:
     from .head import HeadModel
     from .scenario import Simulation
 
-__all__ = ["DATA", "HEADS", "OUTPUTS", "Demo", "run_demo"]
+__all__ = ["DATA", "DETECTION_COLUMNS", "HEADS", "OUTPUTS", "Demo", "run_demo"]
 
 #: The two data sets: label -> the sources active in it (the same noise draws).
 DATA = {"present": ("deep", "superficial"), "deep absent": ("superficial",)}
@@ -67,11 +67,12 @@ OUTPUTS = (
 _SLORETA_LAMBDA2 = 1.0 / 9.0
 _SUFFIX = {"present": "", "deep absent": "_deep_absent"}  # of the arrays' names
 #: The metrics of calibrated detection (cortex + thalamus heads), as metrics.COLUMNS.
-_DETECTION = (
-    ("thalamic_level", "largest amplitude over the thalamus at 1.5 ms", "method's unit", "n/a"),
-    ("detection_threshold", "the method's threshold: at most 5 % of null runs exceed it "
-     "(noise alone; one cortical source)", "method's unit", "n/a"),
-    ("deep_detected_calibrated", "thalamic_level above detection_threshold", "bool",
+DETECTION_COLUMNS = (
+    ("thalamic_level", "largest amplitude over the thalamus at 1.5 ms", "the method's", "n/a"),
+    ("detection_threshold", "the method's threshold: at most 5 % of 50 simulated runs of "
+     "noise alone, and of 50 with one cortical source at a random position and orientation, "
+     "exceed it (the demo's head and noise level)", "the method's", "n/a"),
+    ("deep_detected_calibrated", "`thalamic_level` above `detection_threshold`", "bool",
      "true with the deep source, false without"),
 )  # fmt: skip
 
@@ -438,7 +439,7 @@ def write(demo: Demo, out: str | os.PathLike) -> None:
         demo.metrics.to_csv(tmp, index_label="metric")
     with atomic_path(folder / "metrics_columns.csv") as tmp:
         calibrated = "detection_threshold" in demo.metrics.index
-        rows = [*metrics.COLUMNS, *(_DETECTION if calibrated else ())]
+        rows = [*metrics.COLUMNS, *(DETECTION_COLUMNS if calibrated else ())]
         columns = pd.DataFrame(rows, columns=["metric", "meaning", "unit", "better"])
         columns.to_csv(tmp, index=False)
     _figures(demo, folder)
