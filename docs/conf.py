@@ -65,6 +65,8 @@ numpydoc_validation_checks = {
     "RT02",  # a named return (``amplitude : ndarray, shape (n, T)``) says what is returned
     "SS05",  # an English heuristic (a first word ending in "s" is a third-person verb),
     # wrong on noun summaries ("Rows of ...", "Parameters of ...")
+    "PR07",  # a sentence under every parameter: ``L : ndarray, shape (n_channels,
+    "RT03",  # n_sources)`` says what ``L`` is; a sentence is written where it adds to that
 }
 numpydoc_validation_exclude = {
     # constants: documented by their ``#:`` comment, which numpydoc's checks of functions
@@ -72,42 +74,6 @@ numpydoc_validation_exclude = {
     r"\.[A-Z][A-Z0-9_]*$",
     r"\.__version__$",
 }
-# TEMPORARY, to be emptied by the lead after merging issue 31's branches: docstrings of the
-# method, io, conformance and _utils layers that fail the checks above on the i31infra
-# branch (their owners edit those files now). Delete a line once its object validates.
-numpydoc_validation_exclude |= {
-    # numpydoc 1.11 raises StopIteration on a property made by ``property(lambda ...)``
-    r"^skf_ref\.Reconstruction\.(z|x|z_filtered|x_filtered|weights)$",
-    r"^skf_ref\.(Reconstruction|Reconstruction\.amplitude|Reconstruction\.computed|Reconstruction\.from_filter|Reconstruction\.settings|Reconstruction\.shape|Reconstruction\.to_dask|Reconstruction\.to_stc|Reconstruction\.to_zarr|Reconstruction\.with_tuning|SKFOperator|SKFOperator\.check_pick_ori|SKFOperator\.n_sources|SKFOperator\.reconstruct|SKFOperator\.select|SKFOperator\.to_stc|StandardizedKalmanFilter|StandardizedKalmanFilter\.update|StandardizedKalmanFilter\.x_std|apply_skf|apply_skf_epochs|apply_skf_raw|compare|lead_field_amplitude|make_skf_operator|priors_from_snr|reconstruct|tune)$",
-    r"^skf_ref\.conformance\.case_files\.(read_case|write_case)$",
-    r"^skf_ref\.conformance\.cases$",  # the module docstring
-    r"^skf_ref\.conformance\.cases\.(Case|Case\.reconstruct|Case\.shape|Case\.variables|as_value|generate)$",
-    r"^skf_ref\.conformance\.compare\.(Comparison|Comparison\.agrees|Comparison\.closest|Comparison\.diagnosis|Comparison\.exit_status|Comparison\.hint|Comparison\.report|Comparison\.to_dict|Comparison\.to_frame)$",
-    r"^skf_ref\.conformance\.mistakes\.(Suspect)$",
-    r"^skf_ref\.conformance\.precision\.(Precision|precision)$",
-    r"^skf_ref\.conformance\.suite\.(cases|sha256)$",
-    r"^skf_ref\.conformance\.their_outputs\.(checked|read_outputs)$",
-    r"^skf_ref\.io\.apply\.(WhitenedProblem|prepare)$",
-    r"^skf_ref\.io\.channels\.(channel_kind|channel_types|check_reference|has_average_reference_projector|pick_channels)$",
-    r"^skf_ref\.io\.files\.(LeadField|Recording|read_data|read_leadfield|write_reconstruction|write_stc)$",
-    r"^skf_ref\.io\.noise_cov\.(baseline_covariance|check_noise_covariance|noise_covariance)$",
-    r"^skf_ref\.io\.stc\.(StcLayout|StcLayout\.vertices_flat|stc_layout)$",
-    r"^skf_ref\.io\.tables\.(read_csv)$",
-    r"^skf_ref\.io\.zarr_dask\.(check_new_store|stc_to_zarr|to_dask|to_zarr)$",
-    r"^skf_ref\.method\.discrepancy\.(discrepancy_ep|roots)$",
-    r"^skf_ref\.method\.model\.(StateSpaceModel|StateSpaceModel\.check_data|StateSpaceModel\.create|StateSpaceModel\.isotropic_problem|StateSpaceModel\.matrix|StateSpaceModel\.n_channels|StateSpaceModel\.n_sources|StateSpaceModel\.scalar)$",
-    r"^skf_ref\.method\.paths\.dense\.(kalman_filter|predict|rts|run|update)$",
-    r"^skf_ref\.method\.paths\.filterpy_skf\.(run)$",
-    r"^skf_ref\.method\.paths\.recursions\.(Recursions|Recursions\.expand|Recursions\.held|Recursions\.log_det_innovations|Recursions\.omega|Recursions\.p_filt|Recursions\.smooth_state|backward|fixed_point|recurrence)$",
-    r"^skf_ref\.method\.paths\.singular_basis\.(SpectralBasis|SpectralBasis\.log_likelihood|SpectralBasis\.project|SpectralBasis\.rank|SpectralBasis\.residual_energy|log_likelihood|map_threads|thin_svd|whitener)$",
-    r"^skf_ref\.method\.paths\.spectral\.(SpectralModel|SpectralModel\.apply|SpectralModel\.rank|SpectralModel\.standardization|SpectralModel\.steady|run)$",
-    r"^skf_ref\.method\.paths\.spectral_rows\.(SpectralRows|SpectralRows\.array|SpectralRows\.correction|SpectralRows\.min_raw_weight|SpectralRows\.projection|Standardization|Standardization\.held|Standardization\.kept|Standardization\.projector|Standardization\.raw|Standardization\.scale|Standardization\.transient)$",
-    r"^skf_ref\.method\.reconstruct\.(check_smoother)$",
-    r"^skf_ref\.method\.result\.(amplitude_from_components|readonly)$",
-    r"^skf_ref\.method\.standardization\.(overflow_cause|restandardize|standardization_weights|standardized_means)$",
-    r"^skf_ref\.method\.tuning\.(TuneResult|choose_priors)$",
-}
-
 # No network at build time, so no intersphinx: references to other packages' objects stay
 # plain text (they are named with their package, ``mne.Forward``); ours must all resolve.
 _EXTERNAL = (

@@ -50,7 +50,9 @@ def relative(a, b):
 # --- silent wrong output ------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("a, n_times", [(2.0, 600), (1.05, 10_000)])
+@pytest.mark.parametrize(
+    "a, n_times", [(2.0, 600), pytest.param(1.05, 10_000, marks=pytest.mark.slow)]
+)
 @pytest.mark.parametrize("smoother", ["rts-standardized", "rts-state"])
 def test_a_growing_transition_stays_finite_and_equals_dense(a, n_times, smoother):
     # q / c, not c, enters the smoother: c grows as a^(2t) past the largest double

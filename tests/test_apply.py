@@ -135,6 +135,7 @@ def test_fixed_orientation_localizes_a_noise_free_source_exactly(mne_setup):
         assert stc.data[target, 0] > 0  # signed: a positive source gives a positive z
 
 
+@pytest.mark.slow
 def test_a_dipole_is_localized(mne_setup):
     # One dipole, 30 epochs, peak SNR 20 dB in the average, 8 positions: the peak's distance
     # from the dipole at the pulse's maximum. Free orientation standardizes each column on

@@ -27,6 +27,7 @@ def demo_dir(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_demo_writes_figures_arrays_and_metrics(demo_dir, capsys):
     from skf_ref.study.demo import OUTPUTS
 
@@ -59,6 +60,7 @@ def test_demo_writes_figures_arrays_and_metrics(demo_dir, capsys):
     assert settings["paper_setting"] == dict(skf_ref.PAPER_SETTING)
 
 
+@pytest.mark.slow
 def test_demo_prints_the_metrics_table(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path), *SMALL, "--snr-db", "20"]) == 0
     printed = capsys.readouterr().out
@@ -68,6 +70,7 @@ def test_demo_prints_the_metrics_table(tmp_path, capsys):
         assert label in printed, label
 
 
+@pytest.mark.slow
 def test_demo_runs_the_chosen_setting_beside_the_papers(tmp_path, capsys):
     arguments = ["--exponent", "1", "--smoother", "rts-state"]
     assert main(["demo", "--out", str(tmp_path), *SMALL, *arguments]) == 0
@@ -76,6 +79,7 @@ def test_demo_runs_the_chosen_setting_beside_the_papers(tmp_path, capsys):
     assert (settings["exponent"], settings["smoother"]) == (1.0, "rts-state")
 
 
+@pytest.mark.slow
 def test_demo_says_which_head_it_used(tmp_path, monkeypatch, capsys):
     import mne
 

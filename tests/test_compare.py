@@ -435,6 +435,7 @@ def test_command_line_errors_are_one_line_and_exit_2(
     assert all(path.stat().st_size > 0 for path in before)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("arguments, message", ERRORS[:1])
 def test_console_errors_through_a_subprocess(tmp_path, exported, arguments, message):
     arguments = _arguments(arguments, tmp_path, exported)

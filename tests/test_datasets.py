@@ -416,6 +416,7 @@ def test_sep256_cap_is_turned_to_mne_s_axes(sep):
     assert back[2] < front[2]  # the cap reaches down to the neck at the back
 
 
+@pytest.mark.slow
 def test_sep256_forward_on_a_fitted_sphere(sep):
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)

@@ -48,6 +48,7 @@ def test_the_settings_are_the_recommended_and_the_papers(demo):
     assert demo.settings["theta0"] == skf.theta0 and demo.settings["q"] == skf.q
 
 
+@pytest.mark.slow
 def test_nothing_is_written_without_a_folder_and_everything_with_one(demo, tmp_path):
     from skf_ref.study.demo import write
 

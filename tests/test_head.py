@@ -117,6 +117,7 @@ def relative_errors(gain, exact):
     return diff / np.linalg.norm(exact.reshape(len(exact), -1, 3), axis=(0, 2))
 
 
+@pytest.mark.slow
 def test_bem_on_nested_spheres_converges_to_the_analytic_sphere(spheres, tmp_path):
     info, src, exact = spheres
     errors = {

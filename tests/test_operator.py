@@ -330,6 +330,7 @@ def test_an_indefinite_covariance_is_not_told_to_be_whitened():
         reconstruct(L, Y, noise_cov=singular, theta0=1.0, q=0.1)
 
 
+@pytest.mark.slow
 def test_the_types_come_from_the_data(meg_eeg):
     # an MEG-only evoked just works (as apply_inverse): the types the data, the forward and
     # the covariance share; meg=/eeg= restrict them

@@ -11,6 +11,7 @@ import pytest
 from scipy import linalg
 
 from skf_ref import reconstruct
+from skf_ref.method._paths import dense
 
 METHODS = ("dense", "filterpy", "spectral")
 # The batch computation solves one (m T) x (m T) system; both it and the recursions are
@@ -193,3 +194,25 @@ def test_a_long_random_walk_judges_late_activity_against_a_wider_prior():
     sigma = 1.0 + 0.01 * np.array([51, 351])
     assert late < early
     assert late / early == pytest.approx(np.sqrt(sigma[0] / sigma[1]), rel=0.05)
+
+
+def test_the_dense_smoother_needs_the_prior_for_the_smoothed_weights():
+    rng = np.random.default_rng(41)
+    L, Y = rng.standard_normal((4, 6)), rng.standard_normal((4, 3))
+    eye = np.eye(6)
+    f = dense.kalman_filter(L, Y, np.eye(4), eye, 0.1 * eye, eye, 0.5)
+    x, _ = dense.smooth(f, "rts-state", eye, 0.5)  # the other smoothers need only A
+    assert x.shape == (3, 6)
+    with pytest.raises(ValueError, match=r"needs prior=\(Q, P0\)"):
+        dense.smooth(f, "rts-smoothed-weights", eye, 0.5)
+
+
+def test_the_dense_smoother_takes_a_filter_output_with_column_weights_only():
+    # skf_ref.conformance builds mistaken filters' outputs with the weights w and no blocks
+    rng = np.random.default_rng(43)
+    L, Y = rng.standard_normal((4, 6)), rng.standard_normal((4, 3))
+    eye = np.eye(6)
+    f = dense.kalman_filter(L, Y, np.eye(4), eye, 0.1 * eye, eye, 1.25)
+    _, z = dense.smooth(f, "rts-state", eye, 1.25)
+    _, z_columns = dense.smooth({k: v for k, v in f.items() if k != "W"}, "rts-state", eye, 1.25)
+    np.testing.assert_allclose(z_columns, z, rtol=1e-12)

@@ -224,9 +224,20 @@ def test_one_orientation_per_position_is_the_column_form(method, smoother):
         assert relative(getattr(position, name), getattr(column, name)) < 1e-13, name
 
 
+def first_step_by_blocks(L, y, sigma, p, exponent):
+    """T = 1, P_{1|0} = p I: the weights' diagonal and z from W = blockdiag(B_i^-alpha),
+    B = p L^T S^-1 L, by eigh of each block."""
+    S = p * L @ L.T + sigma**2 * np.eye(len(L))
+    B = blocks_of(p * L.T @ linalg.solve(S, L, assume_a="pos"), 3)
+    eigenvalues, E = np.linalg.eigh(B)
+    powers = np.einsum("nij,nj,nkj->nik", E, eigenvalues**-exponent, E)
+    x = p * L.T @ linalg.solve(S, y, assume_a="pos")
+    z = np.einsum("nij,nj->ni", powers, x.reshape(-1, 3) / np.sqrt(p)).ravel()
+    return np.diagonal(powers, axis1=1, axis2=2).ravel(), z
+
+
 @pytest.mark.parametrize("exponent", [0.0, 0.5, 1.0, 1.25, 2.0])
 def test_weights_are_the_diagonal_of_the_block_powers(method, exponent):
-    # T = 1, P_{1|0} = p I: W = blockdiag(B_i^-alpha) with B = p L^T S^-1 L
     rng = np.random.default_rng(9)
     L = free_lead_field(rng, 12, 5)
     y = rng.standard_normal(12)
@@ -242,14 +253,32 @@ def test_weights_are_the_diagonal_of_the_block_powers(method, exponent):
         n_orient=3,
         method=method,
     )
-    S = p * L @ L.T + sigma**2 * np.eye(12)
-    B = blocks_of(p * L.T @ linalg.solve(S, L, assume_a="pos"), 3)
-    eigenvalues, E = np.linalg.eigh(B)
-    powers = np.einsum("nij,nj,nkj->nik", E, eigenvalues**-exponent, E)
-    x = p * L.T @ linalg.solve(S, y, assume_a="pos")
-    z = np.einsum("nij,nj->ni", powers, x.reshape(-1, 3) / np.sqrt(p)).ravel()
-    assert relative(rec.weights[:, 0], np.diagonal(powers, axis1=1, axis2=2).ravel()) < 1e-12
+    weights, z = first_step_by_blocks(L, y, sigma, p, exponent)
+    assert relative(rec.weights[:, 0], weights) < 1e-12
     assert relative(rec.z[:, 0], z) < CLOSED_FORM_RTOL
+
+
+@pytest.mark.parametrize("first", ["z", "weights"])
+def test_weights_and_z_of_many_positions_in_either_order(first):
+    # more positions than the spectral path computes at once within a tile, both outputs
+    # from one reconstruction: what one output keeps for a tile must not serve the other
+    rng = np.random.default_rng(19)
+    L = free_lead_field(rng, 12, 700)
+    y = rng.standard_normal(12)
+    rec = reconstruct(
+        L,
+        y[:, None],
+        noise_std=0.5,
+        theta0=0.8,
+        q=0.0,
+        standardize="position",
+        n_orient=3,
+        method="spectral",
+    )
+    weights, z = first_step_by_blocks(L, y, 0.5, 0.8, 0.5)
+    expected = dict(weights=weights, z=z)
+    for name in (first, *(set(expected) - {first})):
+        assert relative(getattr(rec, name)[:, 0], expected[name]) < CLOSED_FORM_RTOL, name
 
 
 def test_settings_record_the_standardization():
@@ -298,3 +327,19 @@ def test_a_position_not_seen_in_every_orientation_is_refused(method):
         )  # fmt: skip
     # the column form is defined there
     reconstruct(L, rng.standard_normal((3, 2)), noise_std=1.0, theta0=1.0, q=0.1, n_orient=3)
+
+
+@pytest.mark.parametrize("exponent", [0.5, 1.25])
+def test_components_held_one_at_a_time_agree_with_the_dense_path(exponent):
+    # channels seen from 1 to 1e3 times more strongly: the components of the covariance
+    # recursion settle tens to hundreds of steps apart, and the spectral path holds each
+    # from its own step on (skf_ref.method._paths.block_weights)
+    rng = np.random.default_rng(29)
+    L = free_lead_field(rng, 8, 4) * np.logspace(0, 1.5, 8)[:, None]
+    Y = rng.standard_normal((8, 300))
+    settings = dict(noise_std=1.0, theta0=1e-2, q=1e-3, exponent=exponent)
+    settings.update(standardize="position", n_orient=3)
+    spectral = reconstruct(L, Y, **settings, method="spectral")
+    dense = reconstruct(L, Y, **settings, method="dense")
+    for name in ("z", "weights"):
+        assert relative(getattr(spectral, name), getattr(dense, name)) < 1e-10, name

@@ -52,6 +52,7 @@ def test_epochs_and_their_operator(problem):
         apply_skf_epochs(epochs[:1], operator, standardize="positions")
 
 
+@pytest.mark.slow  # 14 s; its fast sibling: test_standardize_position's exact localization
 def test_a_dipole_of_any_orientation_is_localized(mne_setup):
     # As test_apply.test_a_dipole_is_localized (the numbers of apply_skf's docstring), with
     # each position standardized as a whole: the largest error falls (69 to 29 mm for the

@@ -144,6 +144,7 @@ def _lines(path):
     return path.read_bytes().count(b"\n") if path.exists() else 0
 
 
+@pytest.mark.slow
 def test_resume_after_the_process_is_killed(tmp_path):
     out = tmp_path / "results.csv"
     env = os.environ | {"PYTHONPATH": str(Path(__file__).resolve().parents[1])}

@@ -21,9 +21,16 @@ time (every thread) and of the ratios, and the load (1-minute average and tasks 
 besides the benchmark) before the runs. One pair is run first and not timed: it warms the
 libraries and, where numba is installed, compiles the 3 x 3 closed form of the position
 form (once per installation: numba caches it on disk), whose one-off time is reported.
+
+numba is the optional extra ``fast`` (in ``all``); the README's ``pip install ".[test]"``
+and CI do not install it. Every comparison is therefore run twice, with the compiled
+closed form and without it (numpy's, as in an installation without numba), unless
+``--numba installed`` or ``--numba absent`` picks one; without numba installed only the
+second runs. The smoother's comparison (column form) does not use numba: it runs once.
 """
 
 import argparse
+import contextlib
 import sys
 import time
 from pathlib import Path
@@ -34,7 +41,17 @@ import pandas as pd
 from skf_ref._utils.atomic_files import atomic_path
 from validation import timing
 
-__all__ = ["COMPARISONS", "HEADING", "SIZE", "TARGETS", "compare", "main", "to_markdown"]
+__all__ = [
+    "CLOSED_FORM",
+    "COMPARISONS",
+    "HEADING",
+    "SIZE",
+    "TARGETS",
+    "compare",
+    "main",
+    "numba_used",
+    "to_markdown",
+]
 
 #: (n_columns, n_channels, n_times)
 SIZE = (150_000, 128, 1000)
@@ -55,6 +72,8 @@ COMPARISONS = {
         dict(exponent=0.5, smoother="rts-smoothed-weights"),
     ),
 }
+#: The comparisons whose compared run takes the 3 x 3 closed form (numba's, where used).
+CLOSED_FORM = ("position-0.5", "position-1.25")
 #: The issue's targets: the compared run's time over the baseline's, at most.
 TARGETS = {"position-0.5": 1.3, "position-1.25": 2.0, "rts-smoothed-weights": 1.3}
 
@@ -78,6 +97,20 @@ def runner(problem, settings):
         return rec.z  # computed on access
 
     return run
+
+
+@contextlib.contextmanager
+def numba_used(used):
+    """The position form's closed form compiled by numba (``used``) or in numpy, as in an
+    installation without numba; yields the ``numba`` column: its version, or "absent"."""
+    from skf_ref.method import _sym3_compiled
+
+    installed = _sym3_compiled.AVAILABLE
+    _sym3_compiled.AVAILABLE = used
+    try:
+        yield _sym3_compiled.numba.__version__ if used else "absent"
+    finally:
+        _sym3_compiled.AVAILABLE = installed
 
 
 def _timed(run):
@@ -148,15 +181,19 @@ def to_markdown(rows, header=()):
         'exponent; `"rts-state"` for the smoother. Medians over the pairs; ratios are '
         "medians of per-pair ratios [interquartile range]; the first pair is not timed "
         "(its compared run, with numba's one-off compilation where it happens, is given). "
-        "Load: 1-minute average / tasks runnable besides the benchmark, before each run.",
+        "Load: 1-minute average / tasks runnable besides the benchmark, before each run. "
+        "numba: the version that compiled the position form's 3 x 3 closed form, or "
+        "\"absent\" (numpy's closed form, as without the extra `fast`: the README's "
+        '`pip install ".[test]"` and CI).',
         "",
-        "| comparison | size | pairs | baseline s (CPU-s) | compared s (CPU-s) | ratio, wall "
-        "| ratio, CPU | target | first compared run s | load | BLAS |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+        "| comparison | numba | size | pairs | baseline s (CPU-s) | compared s (CPU-s) "
+        "| ratio, wall | ratio, CPU | target | first compared run s | load | BLAS |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for r in rows:
         lines.append(
-            f"| {r['comparison']} | {r['n_columns']} x {r['n_channels']} x {r['n_times']} "
+            f"| {r['comparison']} | {r['numba']} "
+            f"| {r['n_columns']} x {r['n_channels']} x {r['n_times']} "
             f"| {r['pairs']} | {r['baseline_seconds']:.2f} ({r['baseline_cpu_seconds']:.2f}) "
             f"| {r['compared_seconds']:.2f} ({r['compared_cpu_seconds']:.2f}) "
             f"| {r['ratio']:.3f} [{r['ratio_q1']:.3f}, {r['ratio_q3']:.3f}] "
@@ -173,6 +210,7 @@ def main(argv=None):
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--comparisons", default=",".join(COMPARISONS))
     parser.add_argument("--competitor", action="store_true")
+    parser.add_argument("--numba", choices=("both", "installed", "absent"), default="both")
     parser.add_argument("--out", default=str(Path(__file__).parent / "bench"))
     args = parser.parse_args(argv)
     from validation.bench import header_lines, make_problem
@@ -182,11 +220,21 @@ def main(argv=None):
     unknown = [label for label in labels if label not in COMPARISONS]
     if unknown:
         parser.error(f"--comparisons: unknown {unknown}; known: {list(COMPARISONS)}")
+    from skf_ref.method._sym3_compiled import AVAILABLE
+
+    if args.numba == "installed" and not AVAILABLE:
+        parser.error("--numba installed: numba is not installed (pip install numba)")
+    uses = {"both": [True, False] if AVAILABLE else [False], "installed": [True]}
     problem = make_problem(*size)
     rows = []
     with timing.competitor(args.competitor):
-        for label in labels:
-            rows.append(compare(problem, label, args.repeats))
+        for k, used in enumerate(uses.get(args.numba, [False])):
+            with numba_used(used) as version:
+                for label in labels:
+                    if label in CLOSED_FORM:
+                        rows.append({**compare(problem, label, args.repeats), "numba": version})
+                    elif k == 0:  # no closed form: numba plays no part
+                        rows.append({**compare(problem, label, args.repeats), "numba": "-"})
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     table = pd.DataFrame(rows)

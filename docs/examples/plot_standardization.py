@@ -94,7 +94,9 @@ for source, sim in data.items():
 # Distance in mm from each true dipole to the position of largest amplitude at its peak. A
 # position grid cannot do better than the distance to its nearest position.
 
-table = pd.Series(errors).unstack().rename(columns=lambda name: f"{name} alone (mm)")
+rows = list(dict.fromkeys(setting for setting, _ in errors))  # in the order computed
+table = pd.Series(errors).unstack().reindex(rows)
+table = table.rename(columns=lambda name: f"{name} alone (mm)")
 print(table.round(1).to_string())
 
 # %%

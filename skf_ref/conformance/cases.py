@@ -66,7 +66,7 @@ _N_TIMES = 7
 class Case:
     """One conformance case: the inputs, the expected outputs and what it exercises.
 
-    Attributes
+    Parameters
     ----------
     name : str
     description : str
@@ -99,7 +99,7 @@ class Case:
 
     @property
     def shape(self) -> tuple[int, int]:
-        """tuple : (n_sources, n_times) of every array output."""
+        """The shape ``(n_sources, n_times)`` of every array output."""
         return (self.inputs["L"].shape[1], self.inputs["Y"].shape[1])
 
     def reconstruct(self, method: str = "dense", **changes: Any) -> Reconstruction:

@@ -218,7 +218,15 @@ def apply_skf_epochs(
     ----------
     epochs : mne.Epochs
     operator : SKFOperator
-    exponent, smoother, pick_ori, method, standardize
+    exponent : float
+        As :func:`apply_skf`.
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
+        As :func:`apply_skf`.
+    pick_ori : {None, "vector"}
+        As :func:`apply_skf`.
+    method : {"auto", "filterpy", "dense", "spectral"}
+        As :func:`apply_skf`.
+    standardize : {"column", "position"}
         As :func:`apply_skf`.
     nave : float
         The trials each epoch averages, as ``apply_inverse_epochs`` takes it: 1 (single

@@ -74,7 +74,7 @@ _MNE_DATA = (".fif", ".edf", ".bdf", ".vhdr", ".set", ".gdf", ".cnt", ".gz")
 class LeadField:
     """A lead field read from a file.
 
-    Attributes
+    Parameters
     ----------
     data : ndarray, shape (n_channels, n_sources)
     ch_names : list of str or None
@@ -94,7 +94,7 @@ class LeadField:
 class Recording:
     """EEG data read from a file.
 
-    Attributes
+    Parameters
     ----------
     data : ndarray, shape (n_channels, n_times)
     ch_names : list of str or None

@@ -117,6 +117,23 @@ class SKFOperator:
     applied by :func:`skf_ref.apply_skf`, :func:`skf_ref.apply_skf_epochs` and
     :func:`skf_ref.apply_skf_raw`, or to an array by :meth:`reconstruct`.
 
+    Parameters
+    ----------
+    info : mne.Info
+        The info of the channels used, with every projector the whitener applies.
+    ch_names : list of str
+        The channels used, in the info's order.
+    dropped : dict
+        The channels left out, by reason.
+    whitener : ndarray, shape (rank, n_channels)
+        MNE's whitener of the noise covariance of one trial.
+    forward : mne.Forward
+        The forward restricted to ``ch_names``, free orientation in MNE's x, y, z.
+    fixed : bool
+        Whether the forward has fixed orientations (one column per position).
+    pm, ep : float or "auto" or (float, float)
+        The priors PM-SNR and EP-SNR in dB, or ranges to search on each data set.
+
     Attributes
     ----------
     ch_names : list of str
@@ -173,7 +190,7 @@ class SKFOperator:
 
     @property
     def n_sources(self) -> int:
-        """int : Columns of the lead field."""
+        """Columns of the lead field (int)."""
         return self.leadfield.shape[1]
 
     def _summary(self) -> dict[str, str]:
@@ -227,7 +244,13 @@ class SKFOperator:
         return self._models[key]
 
     def check_pick_ori(self, pick_ori: str | None) -> None:
-        """Refuse a ``pick_ori`` the operator's forward cannot give."""
+        """Refuse a ``pick_ori`` the operator's forward cannot give.
+
+        Parameters
+        ----------
+        pick_ori : None or "normal" or "vector"
+            As MNE's ``apply_inverse``.
+        """
         check_choice("pick_ori", pick_ori, PICK_ORIS)
         if pick_ori == "vector" and self.n_components == 1:
             raise InputError(
@@ -410,7 +433,20 @@ class SKFOperator:
     ) -> Any:
         """A reconstruction as an MNE source estimate on the operator's source space.
 
-        See :func:`skf_ref.io.stc.make_stc`.
+        Parameters
+        ----------
+        reconstruction : skf_ref.Reconstruction
+            Of this operator's lead field.
+        tmin, tstep : float
+            The first time and the sampling step, seconds.
+        pick_ori : None or "normal" or "vector"
+            As MNE's ``apply_inverse`` (see :func:`skf_ref.io.make_stc`).
+
+        Returns
+        -------
+        mne.SourceEstimate or mne.VolSourceEstimate or a vector estimate
+            The standardized estimate ``z`` (with ``pick_ori=None`` and free orientation,
+            each position's amplitude).
         """
         if pick_ori not in self._layouts:
             self._layouts[pick_ori] = stc_layout(self.n_sources, self.forward["src"], pick_ori)

@@ -64,7 +64,13 @@ def apply_skf_raw(
     operator : SKFOperator
     start, stop : int, optional
         The first sample and the one after the last (indices, as ``raw.get_data``).
-    exponent, smoother, pick_ori, standardize
+    exponent : float
+        As :func:`apply_skf`.
+    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
+        As :func:`apply_skf`.
+    pick_ori : {None, "vector"}
+        As :func:`apply_skf`.
+    standardize : {"column", "position"}
         As :func:`apply_skf`.
     out : path-like, optional
         A zarr store to create (e.g. ``"run1-skf.zarr"``): its array ``"data"`` holds what

@@ -317,8 +317,10 @@ def stc_to_zarr(
     pick_ori: str | None = None,
     overwrite: bool = False,
 ) -> Any:
-    """Write what :func:`skf_ref.io.stc.make_stc` would hold to a zarr store, row block by
-    row block: an estimate of any length, without ever holding it whole.
+    """Write what :func:`skf_ref.io.make_stc` would hold to a zarr store, block by block.
+
+    An estimate of any length, without ever holding it whole: the rows come one block at a
+    time.
 
     Parameters
     ----------

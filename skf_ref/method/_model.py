@@ -89,7 +89,7 @@ class StateSpaceModel:
     Build it with :meth:`create`, which checks every parameter; the constructor itself
     trusts its arguments.
 
-    Attributes
+    Parameters
     ----------
     L : ndarray, shape (n_channels, n_sources)
         Lead field.
@@ -132,6 +132,21 @@ class StateSpaceModel:
     ) -> "StateSpaceModel":
         """Check every parameter (names as in :func:`skf_ref.reconstruct`) and build the model.
 
+        Parameters
+        ----------
+        L : array_like, shape (n_channels, n_sources)
+            Lead field.
+        noise_std : float, optional
+            Noise standard deviation: ``R = noise_std**2 I``.
+        noise_cov : array_like, shape (n_channels, n_channels), optional
+            Noise covariance, symmetric positive definite. Give exactly one of the two.
+        theta0 : float or array_like, shape (n_sources, n_sources)
+            ``P_0``: a scalar means ``theta0 I``.
+        q : float or array_like, shape (n_sources, n_sources)
+            ``Q``: a scalar means ``q I``.
+        transition : float or array_like, shape (n_sources, n_sources)
+            ``A``: a scalar ``a`` means ``a I`` (default the random walk, 1).
+
         Returns
         -------
         StateSpaceModel
@@ -168,17 +183,21 @@ class StateSpaceModel:
 
     @property
     def n_channels(self) -> int:
-        """int : Rows of the lead field."""
+        """Rows of the lead field (int)."""
         return self.L.shape[0]
 
     @property
     def n_sources(self) -> int:
-        """int : Columns of the lead field (state components)."""
+        """Columns of the lead field, the state's components (int)."""
         return self.L.shape[1]
 
+    @functools.cached_property
+    def _smallest_noise_std(self) -> float:
+        """The square root of ``R``'s smallest eigenvalue, once per model (epochs share it)."""
+        return float(np.sqrt(np.linalg.eigvalsh(self.R)[0]))
+
     def check_data(self, Y: ArrayLike) -> NDArray[np.float64]:
-        """``Y`` as a float array of shape (n_channels, n_times), finite and in range, but
-        for its missing steps.
+        """``Y`` as a float array, finite and in range but for its missing steps.
 
         A column of NaN is a missing step (docs/model.md §2: predicted, not updated); a
         column NaN in some channels only, or any Inf, is refused. The squared size of the
@@ -207,7 +226,7 @@ class StateSpaceModel:
         missing = missing_steps(Y)
         observed = Y[:, ~missing] if missing.any() else Y
         self._check_reference(observed)
-        noise_std = np.sqrt(np.linalg.eigvalsh(self.R)[0])
+        noise_std = self._smallest_noise_std
         size = np.max(np.abs(observed)) / noise_std
         if size > 0 and not np.log(size) * 2 + np.log(observed.size) < np.log(_LARGEST):
             raise InputError(
@@ -241,12 +260,34 @@ class StateSpaceModel:
         return average_referenced(self.L, per_column=True)
 
     def matrix(self, name: str) -> NDArray[np.float64]:
-        """``"transition"``, ``"q"`` or ``"theta0"`` as an (n_sources, n_sources) matrix."""
+        """``"transition"``, ``"q"`` or ``"theta0"`` as an (n_sources, n_sources) matrix.
+
+        Parameters
+        ----------
+        name : {"transition", "q", "theta0"}
+            The parameter.
+
+        Returns
+        -------
+        ndarray, shape (n_sources, n_sources)
+            The parameter's matrix (a scalar ``c`` as ``c I``).
+        """
         value = getattr(self, name)
         return value * np.eye(self.n_sources) if np.ndim(value) == 0 else value
 
     def scalar(self, name: str) -> float | None:
-        """``c`` if ``transition``, ``q`` or ``theta0`` is a scalar ``c`` or ``c I``, else None."""
+        """``c`` if ``transition``, ``q`` or ``theta0`` is a scalar ``c`` or ``c I``, else None.
+
+        Parameters
+        ----------
+        name : {"transition", "q", "theta0"}
+            The parameter.
+
+        Returns
+        -------
+        float or None
+            The scalar, or None for a matrix other than ``c I``.
+        """
         value = getattr(self, name)
         if np.ndim(value) == 0:
             return float(value)

@@ -344,37 +344,37 @@ class Reconstruction:
 
     @property
     def z(self) -> NDArray[np.float64]:
-        """ndarray, shape (n_sources, n_times) : Standardized (smoothed) estimate."""
+        """Standardized (smoothed) estimate, (n_sources, n_times)."""
         return self._array("z")
 
     @property
     def x(self) -> NDArray[np.float64]:
-        """ndarray, shape (n_sources, n_times) : Unstandardized (smoothed) means."""
+        """Unstandardized (smoothed) means, (n_sources, n_times)."""
         return self._array("x")
 
     @property
     def z_filtered(self) -> NDArray[np.float64]:
-        """ndarray, shape (n_sources, n_times) : Filtered ``z_{t|t}``."""
+        """Filtered ``z_{t|t}``, (n_sources, n_times)."""
         return self._array("z_filtered")
 
     @property
     def x_filtered(self) -> NDArray[np.float64]:
-        """ndarray, shape (n_sources, n_times) : Filtered ``x_{t|t}``."""
+        """Filtered ``x_{t|t}``, (n_sources, n_times)."""
         return self._array("x_filtered")
 
     @property
     def weights(self) -> NDArray[np.float64]:
-        """ndarray, shape (n_sources, n_times) : Diagonal of ``W_t^(alpha)``."""
+        """Diagonal of ``W_t^(alpha)``, (n_sources, n_times)."""
         return self._array("weights")
 
     @property
     def shape(self) -> tuple[int, int]:
-        """tuple : (n_sources, n_times)."""
+        """The shape ``(n_sources, n_times)`` of every output."""
         return (self.n_sources, self.n_times)
 
     @property
     def settings(self) -> dict[str, Any]:
-        """dict : What produced this result; matrices are recorded as ``"matrix"``."""
+        """What produced this result (dict); matrices are recorded as ``"matrix"``."""
         return {
             "method": self.method,
             "exponent": self.exponent,

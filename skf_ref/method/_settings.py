@@ -135,7 +135,7 @@ def check_settings(
     skf_ref._utils.checks.InputError: standardize='position' needs n_orient, the columns \
 per source position (3 for free orientation, 1 for fixed)
     """
-    standardize = check_choice("standardize", standardize, STANDARDIZATIONS)
+    form: str = check_choice("standardize", standardize, STANDARDIZATIONS)
     if n_orient is not None:
         n_orient = check_int("n_orient", n_orient, minimum=None)
         if n_orient not in (1, 3):
@@ -145,7 +145,7 @@ per source position (3 for free orientation, 1 for fixed)
                 f"n_orient={n_orient} must divide the {n_sources} columns of L (positions "
                 "of n_orient columns each, MNE's order)"
             )
-    elif standardize == "position":
+    elif form == "position":
         raise InputError(
             "standardize='position' needs n_orient, the columns per source position (3 for "
             "free orientation, 1 for fixed)"
@@ -154,7 +154,7 @@ per source position (3 for free orientation, 1 for fixed)
         exponent=check_real("exponent", exponent, nonnegative=True),
         smoother=check_smoother(smoother),
         method=check_choice("method", method, METHODS),
-        standardize=standardize,
+        standardize=form,
         n_orient=n_orient,
     )
 

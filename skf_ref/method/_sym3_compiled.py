@@ -114,9 +114,16 @@ if AVAILABLE:
         return -total / (power_m(ya, m) * power_m(yb, m) * (ya + yb) * (ya * ya + yb * yb))
 
     @_jit
-    def coefficients(b0, b1, b2, b3, b4, b5, m, rcond):
-        """``c`` = B / q and (k0, k1, k2) with B^-alpha = k0 I + k1 c + k2 c^2; NaN k0 when
-        the block is left to LAPACK."""
+    def first_half(sa, sb, k):  # f[a, b] of f = x^-(k/2), a = sa^2, b = sb^2
+        total, sb_power = 1.0, sb
+        for j in range(1, 4):
+            total = sa * total + sb_power if j < k else total
+            sb_power *= sb
+        return -total / (power_m(sa, k) * power_m(sb, k) * (sa + sb))
+
+    @_jit
+    def eigenvalues(b0, b1, b2, b3, b4, b5):
+        """``c`` = B / q, ``q`` and the eigenvalues l1 >= l2 >= l3 of ``c``."""
         q = (b0 + b3 + b5) * (1.0 / 3.0)
         iq = 1.0 / q
         c00, c01, c02, c11, c12, c22 = b0 * iq, b1 * iq, b2 * iq, b3 * iq, b4 * iq, b5 * iq
@@ -137,47 +144,92 @@ if AVAILABLE:
         l1 = 1.0 + 2.0 * p * cosine
         l2 = 1.0 - p * (cosine - _SQRT3 * sine)
         l3 = 1.0 - p * (cosine + _SQRT3 * sine)
-        y1, y2, y3 = math.sqrt(math.sqrt(l1)), math.sqrt(math.sqrt(l2)), math.sqrt(math.sqrt(l3))
-        f1 = 1.0 / power_m(y1, m)
-        f12, f23 = first(y1, y2, m), first(y2, y3, m)
+        return c00, c01, c02, c11, c12, c22, q, l1, l2, l3
+
+    @_jit
+    def polynomial(q, l1, l2, l3, f1, f12, f23, second, scale, rcond):
+        """(k0, k1, k2) with B^-alpha = k0 I + k1 c + k2 c^2 from the Newton form; NaN k0
+        when the block is left to LAPACK."""
         d13 = l1 - l3
-        alpha = m / 4.0
-        second = alpha * (alpha + 1.0) / 2.0 / (power_m(y2, m) * l2 * l2)  # f''(l2) / 2
         f123 = (f12 - f23) / d13 if d13 > 0.0 else second
-        scale = 1.0 / power_m(math.sqrt(math.sqrt(q)), m)  # (q C)^-alpha = q^-alpha C^-alpha
         k0 = (f1 - f12 * l1 + f123 * l1 * l2) * scale
         k0 = k0 if l3 >= rcond * l1 else math.nan
-        return c00, c01, c02, c11, c12, c22, k0, (f12 - f123 * (l1 + l2)) * scale, f123 * scale
+        return k0, (f12 - f123 * (l1 + l2)) * scale, f123 * scale
+
+    @_jit
+    def coefficients(b0, b1, b2, b3, b4, b5, m, rcond):
+        """``c`` = B / q and (k0, k1, k2): exponent m / 4 in fourth roots."""
+        c00, c01, c02, c11, c12, c22, q, l1, l2, l3 = eigenvalues(b0, b1, b2, b3, b4, b5)
+        y1, y2, y3 = math.sqrt(math.sqrt(l1)), math.sqrt(math.sqrt(l2)), math.sqrt(math.sqrt(l3))
+        alpha = m / 4.0
+        second = alpha * (alpha + 1.0) / 2.0 / (power_m(y2, m) * l2 * l2)  # f''(l2) / 2
+        scale = 1.0 / power_m(math.sqrt(math.sqrt(q)), m)  # (q C)^-alpha = q^-alpha C^-alpha
+        f1, f12, f23 = 1.0 / power_m(y1, m), first(y1, y2, m), first(y2, y3, m)
+        k0, k1, k2 = polynomial(q, l1, l2, l3, f1, f12, f23, second, scale, rcond)
+        return c00, c01, c02, c11, c12, c22, k0, k1, k2
+
+    @_jit
+    def coefficients_half(b0, b1, b2, b3, b4, b5, k, rcond):
+        """The same for an even m = 2 k, in square roots only (exponent k / 2)."""
+        c00, c01, c02, c11, c12, c22, q, l1, l2, l3 = eigenvalues(b0, b1, b2, b3, b4, b5)
+        s1, s2, s3 = math.sqrt(l1), math.sqrt(l2), math.sqrt(l3)
+        alpha = k / 2.0
+        second = alpha * (alpha + 1.0) / 2.0 / (power_m(s2, k) * l2 * l2)
+        scale = 1.0 / power_m(math.sqrt(q), k)
+        f1, f12, f23 = 1.0 / power_m(s1, k), first_half(s1, s2, k), first_half(s2, s3, k)
+        k0, k1, k2 = polynomial(q, l1, l2, l3, f1, f12, f23, second, scale, rcond)
+        return c00, c01, c02, c11, c12, c22, k0, k1, k2
 
     _OPTIONS = dict(nogil=True, error_model="numpy", fastmath={"contract"}, cache=True)
 
+    @_jit
+    def store_power(i, c, o0, o1, o2, o3, o4, o5):
+        """``B^-alpha = k0 I + k1 c + k2 c^2`` into the six outputs at ``i``, ``c`` the
+        entries of ``B / q`` and ``k`` (:func:`coefficients`)."""
+        c00, c01, c02, c11, c12, c22, k0, k1, k2 = c
+        o0[i] = k0 + k1 * c00 + k2 * (c00 * c00 + c01 * c01 + c02 * c02)
+        o1[i] = k1 * c01 + k2 * (c00 * c01 + c01 * c11 + c02 * c12) + 0.0 * k0
+        o2[i] = k1 * c02 + k2 * (c00 * c02 + c01 * c12 + c02 * c22) + 0.0 * k0
+        o3[i] = k0 + k1 * c11 + k2 * (c01 * c01 + c11 * c11 + c12 * c12)
+        o4[i] = k1 * c12 + k2 * (c01 * c02 + c11 * c12 + c12 * c22) + 0.0 * k0
+        o5[i] = k0 + k1 * c22 + k2 * (c02 * c02 + c12 * c12 + c22 * c22)
+
+    @_jit
+    def store_applied(i, c, v0, v1, v2, o0, o1, o2):
+        """``B^-alpha v = k0 v + k1 c v + k2 c (c v)`` into the three outputs at ``i``."""
+        c00, c01, c02, c11, c12, c22, k0, k1, k2 = c
+        x0, x1, x2 = v0[i], v1[i], v2[i]
+        u0 = c00 * x0 + c01 * x1 + c02 * x2
+        u1 = c01 * x0 + c11 * x1 + c12 * x2
+        u2 = c02 * x0 + c12 * x1 + c22 * x2
+        o0[i] = k0 * x0 + k1 * u0 + k2 * (c00 * u0 + c01 * u1 + c02 * u2)
+        o1[i] = k0 * x1 + k1 * u1 + k2 * (c01 * u0 + c11 * u1 + c12 * u2)
+        o2[i] = k0 * x2 + k1 * u2 + k2 * (c02 * u0 + c12 * u1 + c22 * u2)
+
+    # Each loop comes twice, for an even m (square roots) and an odd one (fourth roots): the
+    # choice is made once, outside the loop, so that each loop vectorizes.
+
     @numba.njit(**_OPTIONS)
     def _run(b0, b1, b2, b3, b4, b5, m, rcond, o0, o1, o2, o3, o4, o5):
-        for i in range(b0.shape[0]):
-            c00, c01, c02, c11, c12, c22, k0, k1, k2 = coefficients(
-                b0[i], b1[i], b2[i], b3[i], b4[i], b5[i], m, rcond
-            )
-            o0[i] = k0 + k1 * c00 + k2 * (c00 * c00 + c01 * c01 + c02 * c02)
-            o1[i] = k1 * c01 + k2 * (c00 * c01 + c01 * c11 + c02 * c12) + 0.0 * k0
-            o2[i] = k1 * c02 + k2 * (c00 * c02 + c01 * c12 + c02 * c22) + 0.0 * k0
-            o3[i] = k0 + k1 * c11 + k2 * (c01 * c01 + c11 * c11 + c12 * c12)
-            o4[i] = k1 * c12 + k2 * (c01 * c02 + c11 * c12 + c12 * c22) + 0.0 * k0
-            o5[i] = k0 + k1 * c22 + k2 * (c02 * c02 + c12 * c12 + c22 * c22)
+        if m % 2 == 0:
+            for i in range(b0.shape[0]):
+                c = coefficients_half(b0[i], b1[i], b2[i], b3[i], b4[i], b5[i], m // 2, rcond)
+                store_power(i, c, o0, o1, o2, o3, o4, o5)
+        else:
+            for i in range(b0.shape[0]):
+                c = coefficients(b0[i], b1[i], b2[i], b3[i], b4[i], b5[i], m, rcond)
+                store_power(i, c, o0, o1, o2, o3, o4, o5)
 
     @numba.njit(**_OPTIONS)
     def _run_fused(b0, b1, b2, b3, b4, b5, v0, v1, v2, m, rcond, o0, o1, o2):
-        for i in range(b0.shape[0]):
-            c00, c01, c02, c11, c12, c22, k0, k1, k2 = coefficients(
-                b0[i], b1[i], b2[i], b3[i], b4[i], b5[i], m, rcond
-            )
-            x0, x1, x2 = v0[i], v1[i], v2[i]
-            # B^-alpha v = k0 v + k1 c v + k2 c (c v)
-            u0 = c00 * x0 + c01 * x1 + c02 * x2
-            u1 = c01 * x0 + c11 * x1 + c12 * x2
-            u2 = c02 * x0 + c12 * x1 + c22 * x2
-            o0[i] = k0 * x0 + k1 * u0 + k2 * (c00 * u0 + c01 * u1 + c02 * u2)
-            o1[i] = k0 * x1 + k1 * u1 + k2 * (c01 * u0 + c11 * u1 + c12 * u2)
-            o2[i] = k0 * x2 + k1 * u2 + k2 * (c02 * u0 + c12 * u1 + c22 * u2)
+        if m % 2 == 0:
+            for i in range(b0.shape[0]):
+                c = coefficients_half(b0[i], b1[i], b2[i], b3[i], b4[i], b5[i], m // 2, rcond)
+                store_applied(i, c, v0, v1, v2, o0, o1, o2)
+        else:
+            for i in range(b0.shape[0]):
+                c = coefficients(b0[i], b1[i], b2[i], b3[i], b4[i], b5[i], m, rcond)
+                store_applied(i, c, v0, v1, v2, o0, o1, o2)
 
 
 def power(

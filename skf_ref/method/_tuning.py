@@ -60,7 +60,7 @@ _ENDS = ("lower", "upper")
 class TuneResult:
     """The priors a criterion chose, and the likelihood over the grid.
 
-    Attributes
+    Parameters
     ----------
     pm_snr_db, ep_snr_db : float
         The chosen SNRs (dB).

@@ -27,6 +27,7 @@ from .._standardization import (
     inverse_sqrt,
     raw_blocks,
     raw_weights,
+    restandardize,
     restandardize_blocks,
     standardize_smoothed,
     weight_blocks,
@@ -317,16 +318,17 @@ def run(
     block = n_orient if standardize == "position" and n_orient else 1
     A, Q, P0 = (model.matrix(name) for name in ("transition", "q", "theta0"))
     f = kalman_filter(model.L, Y, model.R, A, Q, P0, exponent, block)
-    x, z = smooth(f, smoother, (A, Q, P0), exponent, block)
+    x, z = smooth(f, smoother, A, exponent, block, prior=(Q, P0))
     return result(f, x, z, model, exponent, smoother, "dense", (standardize, n_orient))
 
 
 def smooth(
     filtered: dict[str, Any],
     smoother: str | None,
-    matrices: tuple[_Array, _Array, _Array],
+    A: _Array,
     exponent: float,
     block: int = 1,
+    prior: tuple[_Array, _Array] | None = None,
 ) -> tuple[_Array, _Array]:
     """The smoothed ``x`` and ``z`` (time-major) of :func:`kalman_filter`'s output.
 
@@ -335,10 +337,12 @@ def smooth(
     filtered : dict
         :func:`kalman_filter`'s output.
     smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
-    matrices : (A, Q, P0), each ndarray of shape (n_sources, n_sources)
+    A : ndarray, shape (n_sources, n_sources)
     exponent : float
     block : int
         Columns standardized together (:func:`kalman_filter`).
+    prior : (Q, P0), each ndarray of shape (n_sources, n_sources), optional
+        The state's prior, which ``"rts-smoothed-weights"`` needs (``Sigma_t``).
 
     Returns
     -------
@@ -346,7 +350,6 @@ def smooth(
         The filtered ones for ``smoother=None``.
     """
     f = filtered
-    A, Q, P0 = matrices
     x, z = f["x_filt"], f["z"]
     if smoother == "rts-standardized":
         # the paper's smoother: RTS over the standardized sequence (docs/model.md §3)
@@ -354,10 +357,16 @@ def smooth(
     elif smoother == "rts-state":
         # textbook RTS on the state, then z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t
         x = rts(f["x_filt"], f["P_filt"], f["P_pred"], A)
-        z = restandardize_blocks(f["W"], f["P_pred_inv_sqrt"], x)
+        if "W" in f:
+            z = restandardize_blocks(f["W"], f["P_pred_inv_sqrt"], x)
+        else:  # a filter's output with the column weights only (skf_ref.conformance's)
+            z = restandardize(f["w"], f["P_pred_inv_sqrt"], x, exponent)
     elif smoother == "rts-smoothed-weights":
         # textbook RTS on the state and its covariance P^s_t, then the smoothed state over
         # its own variance: z^s_t = W^s_t Sigma_t^{-1/2} x^s_t        docs/model.md §3
+        if prior is None:
+            raise ValueError("smoother='rts-smoothed-weights' needs prior=(Q, P0)")
+        Q, P0 = prior
         x = rts(f["x_filt"], f["P_filt"], f["P_pred"], A)
         P_s = rts_covariances(f["P_filt"], f["P_pred"], A)
         Sigma = prior_covariances(A, Q, P0, len(x))

@@ -36,7 +36,7 @@ __all__ = ["StandardizedKalmanFilter", "run"]
 
 
 class StandardizedKalmanFilter(KalmanFilter):
-    """filterpy's Kalman filter plus the SKF standardization after each update.
+    """The Kalman filter of filterpy, plus the SKF standardization after each update.
 
     Parameters
     ----------
@@ -100,10 +100,18 @@ class StandardizedKalmanFilter(KalmanFilter):
     def update(
         self, z: ArrayLike | None, R: ArrayLike | None = None, H: ArrayLike | None = None
     ) -> None:
-        """filterpy's update (§2.2 eq. 5), then the standardization (§2.2 eqs. 6-7).
+        """The update of filterpy (§2.2 eq. 5), then the standardization (§2.2 eqs. 6-7).
 
         With ``z=None`` (a missing measurement) filterpy skips the update; the weights and
         the standardized estimate are then undefined and set to NaN.
+
+        Parameters
+        ----------
+        z : array_like, shape (dim_z,) or None
+            The measurement, or None for a missing one.
+        R, H : array_like, optional
+            Measurement noise covariance and matrix for this step (default ``self.R``,
+            ``self.H``), as filterpy's ``update``.
         """
         P_prior = self.P  # after predict(), self.P is P_{t|t-1}
         super().update(z, R=R, H=H)

@@ -211,7 +211,7 @@ class SpectralBasis:
 
     @property
     def rank(self) -> int:
-        """int : Numerical rank of the whitened lead field."""
+        """Numerical rank of the whitened lead field (int)."""
         return len(self.s)
 
     def project(self, Y: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
@@ -219,6 +219,18 @@ class SpectralBasis:
 
         A few thousand steps at a time: no temporary of the data's size. A missing step
         (a column of NaN) gives zeros: it has no measurement to project.
+
+        Parameters
+        ----------
+        Y : ndarray, shape (n_channels, n_times)
+            The data, a column of NaN for a missing step.
+
+        Returns
+        -------
+        eta : ndarray, shape (n_times, rank)
+            The whitened data's coordinates in the basis ``U``.
+        rho_sq : float
+            The whitened data's energy outside the basis.
         """
         eta = np.empty((Y.shape[1], self.rank))
         rho_sq = 0.0

@@ -185,13 +185,15 @@ class SpectralModel:
 
     @property
     def steady(self) -> int:
-        """int : The first step of the steady state (``n_times`` if the recording ends
-        before it; ``skf_ref.method._paths.recursions``), without missing steps."""
+        """The first step of the steady state (int), without missing steps.
+
+        ``n_times`` if the recording ends before it (``skf_ref.method._paths.recursions``).
+        """
         return self.recursions.steady
 
     @property
     def rank(self) -> int:
-        """int : Numerical rank of the whitened lead field."""
+        """Numerical rank of the whitened lead field (int)."""
         return len(self.s)
 
     def standardization(
@@ -237,8 +239,8 @@ class SpectralModel:
         if "smoothed" not in kept:
             q, theta0 = self.model.scalar("q"), self.model.scalar("theta0")
             assert q is not None and theta0 is not None  # isotropic
-            kept["smoothed"] = smoothed_weights(recursions, q, theta0)  # type: ignore[assignment]
-        return kept["smoothed"]  # type: ignore[return-value]
+            kept["smoothed"] = smoothed_weights(recursions, q, theta0)
+        return kept["smoothed"]
 
     def _prepared(self, missing: NDArray[np.bool_] | None) -> tuple[Recursions, dict[Any, Any]]:
         """The recursion and the kept standardizations of data with these missing steps."""
@@ -258,8 +260,9 @@ class SpectralModel:
         standardize: str = "column",
         n_orient: int | None = None,
     ) -> Reconstruction:
-        """Filter and smooth data ``Y``; equal to ``skf_ref.method._paths.dense.run`` on the
-        model.
+        """Filter and smooth data ``Y``, equal to the dense path on the model.
+
+        Equal to ``skf_ref.method._paths.dense.run`` to rounding.
 
         Parameters
         ----------

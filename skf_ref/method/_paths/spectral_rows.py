@@ -86,7 +86,7 @@ class SpectralRows:
         V: NDArray[np.float64],
         a: float,
         recursions: Recursions,
-        standardization: Standardization,
+        standardization: Standardization | BlockStandardization,
         xi: NDArray[np.float64],
         smoother: str | None,
         memory_limit: float | None = None,
@@ -122,8 +122,26 @@ class SpectralRows:
 
     def array(self, name: str) -> NDArray[np.float64]:
         """Output ``name`` whole, (n_sources, n_times): the transpose of a time-major array
-        (:meth:`time_major`)."""
-        return self.time_major(name).T
+        (:meth:`time_major`), or, standardized per position, C-ordered: the three rows of
+        a position are then copied out as three contiguous runs (a third of the time of
+        interleaving them into each step's row)."""
+        if self.align == 1 or self._needs_correction(name):
+            return self.time_major(name).T
+        result = self._allocate(time_major=False)
+        self._fill_block(name, slice(0, self.n_sources), out=result.T)
+        return result
+
+    def _allocate(self, time_major: bool) -> _Array:
+        """An empty whole output, (n_times, n_sources) or (n_sources, n_times), within the
+        memory limit."""
+        n, T = self.n_sources, self.n_times
+        memory.require(
+            8 * n * T,
+            f"a ({n}, {T}) output array in memory (stream it instead: skf_ref.io.to_zarr, "
+            "Reconstruction.blocks or skf_ref.io.to_dask)",
+            budget=self.memory_limit,
+        )
+        return np.empty((T, n) if time_major else (n, T))
 
     def blocks(
         self, name: str, rows: int | None = None
@@ -424,13 +442,7 @@ class SpectralRows:
             C-ordered: the scalar recursion of the paper's smoother runs along its rows.
         """
         n, T = self.n_sources, self.n_times
-        memory.require(
-            8 * n * T,
-            f"a ({n}, {T}) output array in memory (stream it instead: skf_ref.io.to_zarr, "
-            "Reconstruction.blocks or skf_ref.io.to_dask)",
-            budget=self.memory_limit,
-        )
-        result = np.empty((T, n))
+        result = self._allocate(time_major=True)
         if not (name == "z" and self.smoother == "rts-standardized" and self._delta is None):
             return self._fill_block(name, slice(0, n), out=result)
         self.standardization.prepare()
