@@ -197,3 +197,17 @@ def test_summaries_calibrate_on_the_nulls_and_count_above():
     summary = summarize(dict(nulls=nulls, configurations=configs), levels).set_index("quantity")
     assert summary.loc["true_1", "value"] == 0.5
     assert summary.loc["false_cortical", "value"] == 0.0
+
+
+def test_the_rule_s_text_says_the_defaults_must_follow_priors_not_the_package_s():
+    from types import SimpleNamespace
+
+    from validation.reproduce.worth.design import SKFSetting
+    from validation.reproduce.worth.text_rule import PACKAGE_PRIORS, rule_text
+
+    for ep, follows in ((0.0, True), (PACKAGE_PRIORS[0], False)):
+        setting = SKFSetting(0.5, "none", "position", ep, PACKAGE_PRIORS[1])
+        table = pd.DataFrame(dict(setting=[setting], met=[3], mean_error_mm=[8.6],
+                                  mean_true=[1.0], r1=[True], r2=[True], r3=[True]))  # fmt: skip
+        text = rule_text(SimpleNamespace(rule=(setting, True, table)))
+        assert ("are not the package's default priors (EP 20 / PM 0 dB)" in text) == follows

@@ -12,7 +12,7 @@ from .design import SNRS, Static
 from .rule import MARGIN_MM, criteria, inputs
 from .tables import cell, lookup, markdown_table, percent, snr_name
 
-__all__ = ["PREREGISTRATION", "criteria_text", "headline_rows", "headline_table",
+__all__ = ["PACKAGE_PRIORS", "PREREGISTRATION", "criteria_text", "headline_rows", "headline_table",
            "preregistered", "rule_text"]  # fmt: skip
 
 #: The pre-registration (committed before the numbers).
@@ -86,6 +86,10 @@ def headline_table(worth, snr):
     return markdown_table(header, rows)
 
 
+#: The package's default priors (EP-SNR, PM-SNR) in dB, of ``apply_skf`` and the commands.
+PACKAGE_PRIORS = (20.0, 0.0)
+
+
 def rule_text(worth):
     """The rule (verbatim), its choice, and the candidates nearest it."""
     setting, met_all, table = worth.rule
@@ -95,6 +99,13 @@ def rule_text(worth):
         else "**No candidate met R1, R2 and R3 on the choice set**: the fallback clause chose "
         f"it (it meets {int(table.loc[table['setting'] == setting, 'met'].iloc[0])} of the three)."
     )
+    if setting.priors != PACKAGE_PRIORS:
+        verdict += (
+            f" Its priors (EP {setting.ep_snr_db:g} / PM {setting.pm_snr_db:g} dB) are not the "
+            f"package's default priors (EP {PACKAGE_PRIORS[0]:g} / PM {PACKAGE_PRIORS[1]:g} dB): "
+            "`RECOMMENDED_SETTING` records them, and the defaults of `apply_skf` and the command "
+            "line must follow (section 10)."
+        )
     ranked = table.sort_values(["met", "mean_error_mm"], ascending=[False, True]).head(8)
     rows = [
         [
