@@ -241,11 +241,29 @@ ROW = "480,biosemi64,20.0,0.0,0.0,0.5,none,{seed},12.5\n"
     "content, match",
     [
         (b"a,b\n1,2\n", r"is not a results file of skf-ref sweep: .*\['n_positions'"),
-        (b"\x89PNG\r\n\x1a\n\xff\xfe\x00garbage\n", "is not a results file: byte 0 is not UTF-8"),
-        (HEADER + ROW.format(seed="twenty"), "line 2: a key column is not a number"),
-        (HEADER + ROW.format(seed=0) + "480,biosemi64,20.0\n", "line 3: 3 fields, expected 9"),
-        (HEADER + ROW.format(seed=""), "line 2: 'seed' is empty"),
-        (HEADER + ROW.format(seed=0) * 2, "line 3 repeats the run of line 2"),
+        pytest.param(
+            b"\x89PNG\r\n\x1a\n\xff\xfe\x00garbage\n",
+            "is not a results file: byte 0 is not UTF-8",
+            marks=pytest.mark.slow,
+        ),
+        pytest.param(
+            HEADER + ROW.format(seed="twenty"),
+            "line 2: a key column is not a number",
+            marks=pytest.mark.slow,
+        ),
+        pytest.param(
+            HEADER + ROW.format(seed=0) + "480,biosemi64,20.0\n",
+            "line 3: 3 fields, expected 9",
+            marks=pytest.mark.slow,
+        ),
+        pytest.param(
+            HEADER + ROW.format(seed=""), "line 2: 'seed' is empty", marks=pytest.mark.slow
+        ),
+        pytest.param(
+            HEADER + ROW.format(seed=0) * 2,
+            "line 3 repeats the run of line 2",
+            marks=pytest.mark.slow,
+        ),
     ],
     ids=["other columns", "binary", "key not a number", "missing fields", "empty", "twice"],
 )
@@ -262,6 +280,7 @@ def test_damaged_results_files_are_refused_naming_file_and_line(tmp_path, conten
     assert out.read_bytes() == before  # never repaired silently
 
 
+@pytest.mark.slow
 def test_a_second_sweep_on_the_same_file_is_refused(tmp_path):
     from filelock import FileLock
 

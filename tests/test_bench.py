@@ -15,6 +15,7 @@ from validation import bench, problem
 TINY = (150, 32, 4)
 
 
+@pytest.mark.slow
 def test_every_path_runs_at_a_tiny_size(tmp_path):
     table = bench.benchmark(sizes=[TINY], repeats=1, progress=lambda line: None)
     assert list(table["path"]) == list(bench.PATHS)
@@ -109,6 +110,7 @@ def test_the_make_row_times_make_inverse_operator(monkeypatch):
         assert len(calls) - made_before == 2 * made_per_run, path
 
 
+@pytest.mark.slow
 def test_long_recording_reports_time_memory_and_the_disk(tmp_path):
     from validation import long_recording
 

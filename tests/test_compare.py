@@ -467,6 +467,7 @@ def test_command_line_a_transposed_output_exits_1(tmp_path, capsys, exported):
     assert "disagrees (transposed)" in out and "Likely cause: transposed" in out
 
 
+@pytest.mark.slow
 def test_console_exit_status_1_when_something_disagrees(tmp_path, exported):
     case = CASES["priors_gain"]
     savemat(tmp_path / "mine.mat", _suspect("other_convention").compute(case))

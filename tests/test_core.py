@@ -388,7 +388,9 @@ class TestPaths:
         reconstruct(**problem, method=method, memory_limit=2**30)
 
     @pytest.mark.parametrize("method", COVARIANCE_PATHS)
-    @pytest.mark.parametrize("smoother", [None, *SMOOTHERS])
+    @pytest.mark.parametrize(
+        "smoother", [None, *(pytest.param(s, marks=pytest.mark.slow) for s in SMOOTHERS)]
+    )
     def test_memory_guard_estimate_covers_the_run(self, method, smoother):
         # A run just inside memory_limit must not use much more than memory_limit.
         rng = np.random.default_rng(12)

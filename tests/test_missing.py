@@ -207,6 +207,7 @@ def gapped_problems(draw):
     )
 
 
+@pytest.mark.slow
 @given(gapped_problems())
 def test_paths_agree_on_random_gapped_problems(kwargs):
     dense = reconstruct(**kwargs, method="dense")

@@ -141,6 +141,7 @@ def cluster():
         yield client
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("smoother", SMOOTHERS)
 def test_dask_array_on_a_local_cluster_equals_the_arrays(cluster, smoother):
     array = to_dask(run(smoother), "z", chunks=40)
@@ -152,6 +153,7 @@ def test_dask_array_on_a_local_cluster_equals_the_arrays(cluster, smoother):
     assert relative(cluster.compute(array).result(), whole) <= BLOCK_RTOL
 
 
+@pytest.mark.slow
 def test_sweep_on_a_local_cluster_of_processes(cluster, tmp_path):
     import joblib
 
