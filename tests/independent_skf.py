@@ -36,7 +36,20 @@ def _diag_quadratic(M, S):
     return np.einsum("ij,jk,ik->i", M, S, M)
 
 
-def skf(L, Y, R, A, Q, P0, exponent, smoother, *, mistake=None, dtype=np.float64):
+def _weight_matrix(Psi, alpha, n_orient):
+    """``W = blockdiag_i B_i ** -alpha``, ``B_i`` the ``n_orient`` x ``n_orient`` diagonal
+    blocks of ``Psi`` (1 x 1: ``Diag(diag(Psi) ** -alpha)``), powers by eigh."""
+    W = np.zeros_like(Psi)
+    for i in range(0, len(Psi), n_orient):
+        values, vectors = np.linalg.eigh(Psi[i : i + n_orient, i : i + n_orient])
+        W[i : i + n_orient, i : i + n_orient] = (vectors * values**-alpha) @ vectors.T
+    return W
+
+
+def skf(
+    L, Y, R, A, Q, P0, exponent, smoother, standardize="column", n_orient=1, *,
+    mistake=None, dtype=np.float64,
+):  # fmt: skip
     """The SKF of docs/model.md §2-§3; ``mistake`` names a catalogued mistake to make.
 
     Returns a dict of the six outputs, arrays (n_sources, n_times), in ``dtype``.
@@ -50,8 +63,9 @@ def skf(L, Y, R, A, Q, P0, exponent, smoother, *, mistake=None, dtype=np.float64
     if mistake == "extra_first_prediction":
         P0 = A @ P0 @ A.T + Q
     m, n, T = *L.shape, Y.shape[1]
+    block = int(n_orient) if standardize == "position" else 1
     x, P, log_likelihood = np.zeros(n, dtype), P0, dtype(0)
-    keep = {key: [] for key in ("x", "P", "P_pred", "whitening", "w", "weights", "z")}
+    keep = {key: [] for key in ("x", "P", "P_pred", "whitening", "W", "weights", "z")}
     for t in range(T):
         if t == 0 and mistake == "no_first_prediction":
             x_pred, P_pred = x, P
@@ -78,11 +92,13 @@ def skf(L, Y, R, A, Q, P0, exponent, smoother, *, mistake=None, dtype=np.float64
             whitening = whitening_post
         if mistake == "exponent_on_square_root":
             w = np.sqrt(w)
-        weights = w**-alpha
-        z = weights * (whitening @ x)
-        for key, value in dict(x=x, P=P, P_pred=P_pred, whitening=whitening).items():
-            keep[key].append(value)
-        for key, value in dict(w=w, weights=weights, z=z).items():
+        if block > 1:  # the blocks of Psi_t = whitening K S K^T whitening
+            W = _weight_matrix(whitening @ K @ S @ K.T @ whitening, alpha, block)
+        else:
+            W = np.diag(w**-alpha)
+        z = W @ (whitening @ x)
+        step = dict(x=x, P=P, P_pred=P_pred, whitening=whitening, W=W, weights=np.diag(W), z=z)
+        for key, value in step.items():
             keep[key].append(value)
     x_filtered, z_filtered = np.array(keep["x"]), np.array(keep["z"])
     smoother = (
@@ -93,15 +109,23 @@ def skf(L, Y, R, A, Q, P0, exponent, smoother, *, mistake=None, dtype=np.float64
     x_out, z_out = x_filtered, z_filtered
     if smoother is not None:
         sequence = z_filtered if smoother == "rts-standardized" else x_filtered
-        s = sequence.copy()
+        s, P_s = sequence.copy(), list(keep["P"])
         for t in range(T - 2, -1, -1):
             G = keep["P"][t] @ A.T @ np.linalg.inv(keep["P_pred"][t + 1])
             s[t] = sequence[t] + G @ (s[t + 1] - A @ sequence[t])
+            P_s[t] = keep["P"][t] + G @ (P_s[t + 1] - keep["P_pred"][t + 1]) @ G.T
         if smoother == "rts-standardized":
             z_out = s
-        else:
+        elif smoother == "rts-state":
             x_out = s
-            z_out = np.array(keep["weights"]) * np.einsum("tij,tj->ti", keep["whitening"], s)
+            z_out = np.einsum("tij,tjk,tk->ti", keep["W"], keep["whitening"], s)
+        else:  # over its own variance: Sigma_t = A Sigma_{t-1} A^T + Q, Sigma_0 = P_0
+            x_out, z_out, Sigma = s, np.empty_like(s), P0
+            for t in range(T):
+                Sigma = A @ Sigma @ A.T + Q
+                _, root = _sqrt_and_inverse(Sigma)
+                W = _weight_matrix(root @ (Sigma - P_s[t]) @ root, alpha, block)
+                z_out[t] = W @ root @ s[t]
     outputs = dict(
         z=z_out.T,
         z_filtered=z_filtered.T,
@@ -146,12 +170,21 @@ def run_case(case, *, mistake=None, dtype=np.float64):
         if "L_unreferenced" not in case.extras:
             return None
         L = case.extras["L_unreferenced"]
+    by_position = p.get("standardize", "column") == "position"
     inapplicable = {
-        "other_smoother": p["smoother"] is None,
+        # mistakes of the standardization of each column on its own (the catalogue's)
+        **dict.fromkeys(
+            (*_POSTERIOR, "exponent_on_square_root", "no_first_prediction"), by_position
+        ),
+        "other_smoother": p["smoother"] in (None, "rts-smoothed-weights"),
         "transition_ignored": np.array_equal(A, np.eye(n)),
         "exponent_fixed_at_half": p["exponent"] == 0.5,
         "exponent_dropped": p["exponent"] == 1,
     }
     if inapplicable.get(mistake, False):
         return None
-    return skf(L, p["Y"], R, A, Q, P0, p["exponent"], p["smoother"], mistake=mistake, dtype=dtype)
+    options = (p.get("standardize", "column"), p.get("n_orient", 1))
+    return skf(
+        L, p["Y"], R, A, Q, P0, p["exponent"], p["smoother"], *options, mistake=mistake,
+        dtype=dtype,
+    )  # fmt: skip

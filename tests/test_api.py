@@ -127,10 +127,18 @@ PUBLIC_API = {
     },
     "skf_ref.study.demo": {
         "DATA",
+        "DETECTION_COLUMNS",
         "Demo",
         "HEADS",
         "OUTPUTS",
         "run_demo",
+    },
+    "skf_ref.study.detection": {
+        "FALSE_DETECTION_RATE",
+        "calibrate",
+        "null_levels",
+        "null_threshold",
+        "thalamic_level",
     },
     "skf_ref.study.head": {
         "ANATOMICAL_SPACING_MM",
@@ -194,6 +202,12 @@ PUBLIC_API = {
         "region_mask",
         "region_time_course",
     },
+    "skf_ref.study.resolution": {
+        "level_db",
+        "peak_errors",
+        "position_amplitudes",
+        "spatial_dispersion",
+    },
     "skf_ref.study.scenario": {
         "DEEP_MNI_MM",
         "FORWARDS",
@@ -206,6 +220,15 @@ PUBLIC_API = {
         "WINDOWS",
         "p20n20_scenario",
         "simulate",
+    },
+    "skf_ref.study.sources": {
+        "STRUCTURES",
+        "Sources",
+        "draw_sources",
+        "exact_gains",
+        "position_labels",
+        "position_structures",
+        "random_rotation",
     },
     "skf_ref.study.sweep": {
         "AXES",

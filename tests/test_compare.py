@@ -19,6 +19,7 @@ from scipy.io import savemat
 from skf_ref import InputError, compare
 from skf_ref.cli import main
 from skf_ref.conformance import FLOAT32_TOLERANCE, OUTPUTS, TOLERANCE, cases, export
+from skf_ref.conformance._distances import NEARER
 from skf_ref.conformance.mistakes import SUSPECTS
 
 ENV = os.environ | {"PYTHONPATH": str(Path(__file__).resolve().parents[1])}
@@ -148,12 +149,15 @@ def test_noise_alone_is_not_diagnosed(name):
     result = compare(case, theirs)
     assert not result.agrees and result.diagnosis == [] and result.closest is None
     report = result.report()
-    assert "No known mistake reproduces these numbers" in report and "Closest" not in report
-    assert "None comes closer to them than the expected outputs." in report
+    assert "No known mistake reproduces or explains these outputs" in report
+    assert "none is suggested" in report and "Nearest known mistake" not in report
     assert "if your implementation computes in float32, it agrees to float32" in report
-    for row in result.rows:
-        assert TOLERANCE < row["largest_difference"] <= NOISE
+    for row in result.rows:  # the log-likelihood over its terms' sizes: smaller
+        assert row["largest_difference"] <= NOISE
+        assert TOLERANCE < row["largest_difference"] or row["output"] == "log_likelihood"
     assert {row["first_step"] for row in result.rows} <= {1, None}
+    found = result.first_divergence  # the first output of step 1 that noise moved
+    assert found["step"] == 1 and found["quantity"] in ("filtered_state", "weights")
 
 
 def test_closest_only_when_a_mistake_explains_the_numbers_better():
@@ -163,12 +167,14 @@ def test_closest_only_when_a_mistake_explains_the_numbers_better():
     def between(fraction):  # their numbers, a fraction of the way to the mistake
         return {k: case.expected[k] + fraction * (mistaken[k] - case.expected[k]) for k in OUTPUTS}
 
-    near = compare(case, between(0.9))
+    # NEARER times nearer than the expected outputs on every output that differs: explained
+    near = compare(case, between(1 - 0.5 / NEARER))
     assert near.diagnosis == [] and near.closest == "exponent_dropped"
-    assert near.suspects and near.difference == pytest.approx(0.9 * _distance(case, mistaken))
-    assert "Closest: exponent_dropped, off by" in near.report()
-    far = compare(case, between(0.3))
-    assert far.closest is None and "Closest" not in far.report()
+    assert near.difference == pytest.approx((1 - 0.5 / NEARER) * _distance(case, mistaken))
+    assert "Nearest known mistake: exponent_dropped, off by" in near.report()
+    # nine tenths of the way is nearer, but no explanation
+    far = compare(case, between(0.9))
+    assert far.closest is None and "Nearest" not in far.report()
     assert far.to_dict()["closest"] is None and near.to_dict()["closest"] == "exponent_dropped"
 
 
@@ -264,7 +270,7 @@ def test_the_result_as_a_table_and_a_dict():
     as_dict = result.to_dict()
     assert as_dict["diagnosis"] == ["transposed"] and as_dict["tolerance"] == 1e-4
     json.dumps(as_dict)  # plain values
-    assert repr(result) == "<Comparison | case original_skf, 1 outputs, disagrees>"
+    assert repr(result) == "<Comparison | case original_skf, 1 variables, disagrees>"
 
 
 @pytest.mark.parametrize(

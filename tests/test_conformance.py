@@ -39,7 +39,7 @@ PATHS_RTOL = 1e-8
 # Regenerating a case's inputs from its seed repeats the same arithmetic: equal to rounding
 # (bit for bit on one machine; another BLAS may order a product differently).
 INPUTS_RTOL = 1e-12
-# No file of the suite is large: 10 kB for a short case, 60 kB for the 300-step one.
+# No file of the suite is large: 10-40 kB for a short case, 60 kB for the 300-step one.
 LARGEST_FILE = 60_000
 
 
@@ -326,7 +326,8 @@ def test_the_two_formats_hold_the_same_case():
 def test_the_files_are_small():
     sizes = {path.name: path.stat().st_size for path in SUITE.iterdir()}
     assert max(sizes.values()) <= LARGEST_FILE, sizes
-    assert sum(sizes.values()) <= 10 * LARGEST_FILE
+    # version 3's short cases carry their expected intermediates (10-40 kB a file)
+    assert sum(sizes.values()) <= 15 * LARGEST_FILE
 
 
 def test_mat_files_are_matlab_v5_in_mne_layout():
@@ -381,13 +382,38 @@ def test_the_python_runner_as_shipped_and_with_a_mistake(tmp_path, exported, cap
         return runner.my_skf(L, Y, R, A, Q, P0, 0.5, smoother)
 
     done = runner.run(exported, tmp_path / "half", half)
-    assert len(done) == len(CASES)
-    capsys.readouterr()
+    assert len(done) == len(CASES) - 1  # no standardize parameter: "position" is skipped
+    assert "position                 skipped: it standardizes each position" in (
+        capsys.readouterr().out
+    )
     assert runner.compare_all(done[:3]) == 1  # three cases are enough to hear the name
     out = capsys.readouterr().out
     assert "original_skf             agrees" in out  # alpha is 0.5 there
     assert "average_reference        DISAGREES" in out
     assert "Likely cause: exponent_fixed_at_half" in out
+
+
+def test_the_python_runner_saves_the_intermediates_its_function_returns(
+    tmp_path, exported, capsys
+):
+    runner = _python_runner()
+
+    def with_prediction(L, Y, R, A, Q, P0, exponent, smoother):  # P_pred, Q added twice at 2
+        outputs = runner.my_skf(L, Y, R, A, Q, P0, exponent, smoother)
+        P, P_pred = P0, []
+        for t in range(Y.shape[1]):
+            P_t = A @ P @ A.T + Q * (2 if t == 1 else 1)
+            K = np.linalg.solve(L @ P_t @ L.T + R, L @ P_t).T
+            P = P_t - K @ L @ P_t
+            P_pred.append(P_t)
+        return outputs | {"P_pred": np.stack(P_pred, axis=-1), "mine": 1.0}
+
+    done = runner.run(exported, tmp_path / "mine", with_prediction)
+    assert sorted(np.load(done[0][1]).files) == sorted([*OUTPUTS, "P_pred"])
+    capsys.readouterr()
+    assert runner.compare_all(done[:1]) == 1
+    out = capsys.readouterr().out
+    assert "First divergence: prediction (P_pred) at step 2" in out
 
 
 # --- the command line -------------------------------------------------------------------------

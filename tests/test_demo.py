@@ -73,3 +73,21 @@ def test_bad_input_names_the_parameter_before_any_work(tmp_path):
         run_demo(head="sphere", n_positions=500)
     with pytest.raises(skf_ref.InputError, match="verbose must be"):
         run_demo(**SMALL, verbose="loud")
+
+
+@pytest.mark.slow
+def test_on_cortex_and_thalamus_detection_is_the_level_against_a_calibrated_threshold(tmp_path):
+    from skf_ref.study.detection import thalamic_level
+    from skf_ref.study.sources import position_structures
+
+    demo = run_demo(tmp_path / "out", head="sphere", source_space="anatomical", verbose=False)
+    thalamus = position_structures(demo.head) == "thalamus"
+    peak = int(demo.simulations["present"].truth.peak_indices[0])
+    for (key, data), amplitude in demo.estimates.items():
+        column = demo.metrics[f"{key}, {data}"]
+        level = float(thalamic_level(amplitude[:, peak], thalamus))
+        assert column["thalamic_level"] == pytest.approx(level, rel=1e-12)
+        assert column["detection_threshold"] > 0
+        assert column["deep_detected_calibrated"] == (level > column["detection_threshold"])
+    columns = (tmp_path / "out" / "metrics_columns.csv").read_text()
+    assert "deep_detected_calibrated" in columns and "comparison.png" in OUTPUTS

@@ -24,8 +24,8 @@ from skf_ref.study import metrics
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 # Pages whose examples are doctests (```pycon blocks); model.md has its own runner
-# (tests/test_model_doc.py) and conformance.md shows shell and MATLAB, not Python.
-PAGES_WITH_EXAMPLES = ("getting_started.md", "choosing.md", "scale.md")
+# (tests/test_model_doc.py).
+PAGES_WITH_EXAMPLES = ("getting_started.md", "choosing.md", "scale.md", "conformance.md")
 # At least this many executed examples in the gallery (issue 25).
 MIN_GALLERY = 6
 
@@ -123,7 +123,9 @@ def test_metrics_table_is_the_code_s():
     text = (DOCS / "study.md").read_text()
     rows = re.findall(r"^\| `(\w+)` \| (.+?) \| (.+?) \| (.+?) \|$", text, re.M)
     rows = [tuple(cell.replace("\\|", "|") for cell in row) for row in rows]
-    assert rows == [tuple(column) for column in metrics.COLUMNS]
+    from skf_ref.study.demo import DETECTION_COLUMNS
+
+    assert rows == [tuple(column) for column in (*metrics.COLUMNS, *DETECTION_COLUMNS)]
 
 
 def test_the_report_s_rule_renders_as_one_paragraph():

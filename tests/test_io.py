@@ -9,6 +9,7 @@ from scipy.io import savemat
 
 from skf_ref import InputError, apply_skf, reconstruct
 from skf_ref.io import read_data, read_leadfield, write_reconstruction, write_stc
+from skf_ref.io.variables import read_variables
 
 RNG = np.random.default_rng(0)
 L = RNG.standard_normal((5, 12))
@@ -126,6 +127,18 @@ def test_unusable_lead_field_files(tmp_path, name, content, match):
         path.write_bytes(content)
     with pytest.raises(InputError, match=match):
         read_leadfield(path)
+
+
+@pytest.mark.parametrize("layout", ["text", "hdf5"])
+def test_an_octave_file_that_is_no_matlab_file_says_to_save_with_v7(tmp_path, layout):
+    path = tmp_path / "mine.mat"
+    if layout == "text":  # Octave's default: save('mine.mat', 'z')
+        path.write_text("# Created by Octave 7.3.0\n# name: z\n# type: scalar\n1\n")
+    else:  # save('-hdf5', ...): a group per variable, no MATLAB header
+        with h5py.File(path, "w") as f:
+            f.create_group("z").create_dataset("value", data=np.ones(3))
+    with pytest.raises(InputError, match=r"mine.mat: cannot be read .* save\('-v7'"):
+        read_variables(path)
 
 
 def test_unusable_data_files(tmp_path):

@@ -20,12 +20,13 @@ def test_whitener_whitens_an_average_referenced_covariance():
     np.testing.assert_allclose(W @ np.ones(n), 0.0, atol=1e-10)
 
 
-def test_auc_interval_contains_the_area_and_is_reproducible():
+def test_auc_interval_contains_the_area_and_stays_informative_at_the_ceiling():
     rng = np.random.default_rng(1)
     present, absent = rng.normal(1.0, 1.0, 20), rng.normal(0.0, 1.0, 20)
-    area, low, high = auc_interval(present, absent, np.random.default_rng(0))
-    assert low <= area <= high and 0.5 < area < 1.0
-    assert auc_interval(present, absent, np.random.default_rng(0)) == (area, low, high)
+    area, low, high = auc_interval(present, absent)
+    assert low < area < high and 0.5 < area < 1.0
+    area, low, high = auc_interval(present + 100.0, absent)  # a bootstrap gives [1, 1] here
+    assert area == high == 1.0 and 0.85 < low < 0.95
 
 
 def _rows(method, deep_present, deep_absent):
@@ -35,7 +36,8 @@ def _rows(method, deep_present, deep_absent):
             rows.append(
                 dict(
                     condition="c", snr_db=20.0, seed=seed, data=data, method=method,
-                    setting="s", deep_region_db=deep,
+                    setting="s", deep_region_db=deep, deep_level=10 ** (deep / 20),
+                    deep_epoch_db=deep - 1.0,
                     superficial_region_db=-20.0 if data == "deep" else 0.0,
                     deep_error_mm=[5.0, 10.0, 10.0, np.nan][seed],
                     superficial_error_mm=3.0, run_s=0.01, prep_s=0.1,
@@ -52,6 +54,9 @@ def test_scores_count_detections_and_separations():
     assert row["n_seeds"] == 4
     assert row["deep_auc"] == pytest.approx(15 / 16)  # only -2.5 beats a present score (-3)
     assert row["deep_tpr"] == 1.0 and row["deep_fpr"] == 0.25  # -2.5 dB is within 6 dB
+    assert row["deep_fpr_low"] < 0.25 < row["deep_fpr_high"]  # Clopper-Pearson
+    assert row["deep_tpr_high"] == 1.0 and row["deep_tpr_low"] == pytest.approx(0.025**0.25)
+    assert row["deep_level_auc"] == row["deep_epoch_db_auc"] == pytest.approx(15 / 16)
     assert row["superficial_auc"] == 1.0 and row["superficial_fpr"] == 0.0
     assert (row["deep_err"], row["deep_q1"], row["deep_q3"]) == (10.0, 7.5, 10.0)
     assert row["deep_no_estimate"] == 1

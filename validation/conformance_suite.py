@@ -12,6 +12,13 @@ runner ``run_cases.m`` in GNU Octave on ``validation/octave/skf_plain.m`` (an SK
 docs/model.md in MATLAB) and the Python runner ``run_cases.py`` on ``skf_ref``'s own SKF, and
 compares every output. It needs ``octave`` on the path (Debian: ``apt-get install octave``).
 
+``python -m validation.conformance_suite float32`` measures correct SKFs computing in single
+precision, by algorithm: the package's (Cholesky solves, ``eigh``), a plain covariance-form
+loop, Joseph's form, a loop counting from 1 with explicit inverses, and the information
+form (validation/skf_from_the_docs.py, validation/skf_independent.py), against each pinned
+case, in ``compare``'s measure. The float32 tolerance and ``compare``'s float32 hint rest
+on these ranges.
+
 ``--write`` also writes the tables to ``validation/conformance_suite.md``. Exit status 0 when
 every check holds.
 """
@@ -26,7 +33,14 @@ from pathlib import Path
 import numpy as np
 from scipy import linalg
 
-__all__ = ["main", "precision_table", "reference", "runners_table", "variant"]
+__all__ = [
+    "float32_table",
+    "main",
+    "precision_table",
+    "reference",
+    "runners_table",
+    "variant",
+]
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "conformance_suite.md"
@@ -48,11 +62,37 @@ def _matrices(case):
     return (p["L"], p["Y"], full(p["noise_cov"], m), full(p["transition"], n), full(p["q"], n))
 
 
+def _block(case):
+    """Columns standardized together: ``n_orient`` for ``standardize="position"``, else 1."""
+    p = case.inputs
+    return int(p.get("n_orient", 1)) if p.get("standardize") == "position" else 1
+
+
+def _mp_weight_matrix(mp, Psi, alpha, block):
+    """``W = blockdiag_i B_i ** -alpha``, ``B_i`` the diagonal blocks of ``Psi`` (mpmath)."""
+    n = Psi.rows
+    W = mp.zeros(n, n)
+    for i in range(0, n, block):
+        B = Psi[i : i + block, i : i + block]
+        values, vectors = mp.eigsy((B + B.T) / 2)
+        power = vectors * mp.diag([v**-alpha for v in values]) * vectors.T
+        for a in range(block):
+            for b in range(block):
+                W[i + a, i + b] = power[a, b]
+    return W
+
+
+def _mp_inverse_sqrt(mp, P):
+    values, vectors = mp.eigsy((P + P.T) / 2)
+    return vectors * mp.diag([1 / mp.sqrt(v) for v in values]) * vectors.T
+
+
 def reference(case, digits=DIGITS):
     """The case's six outputs computed with ``digits`` significant digits (mpmath)."""
     import mpmath as mp
 
     p = case.inputs
+    block, alpha = _block(case), mp.mpf(p["exponent"])
     L, Y, R, A, Q = _matrices(case)
     P0 = p["theta0"] * np.eye(L.shape[1]) if np.ndim(p["theta0"]) == 0 else p["theta0"]
     with mp.workdps(digits):
@@ -61,7 +101,7 @@ def reference(case, digits=DIGITS):
         )
         m, n, T = L.rows, L.cols, Y.cols
         x, P, log_likelihood = mp.zeros(n, 1), P0, mp.mpf(0)
-        keep = {key: [] for key in ("x", "z", "weights", "P", "P_pred", "whitening")}
+        keep = {key: [] for key in ("x", "z", "weights", "W", "P", "P_pred", "whitening")}
         for t in range(T):
             x_pred, P_pred = A * x, A * P * A.T + Q
             S = L * P_pred * L.T + R
@@ -72,32 +112,34 @@ def reference(case, digits=DIGITS):
             log_likelihood -= (
                 m * mp.log(2 * mp.pi) + mp.log(mp.det(S)) + (e.T * S_inv * e)[0]
             ) / 2
-            values, vectors = mp.eigsy((P_pred + P_pred.T) / 2)
-            whitening = vectors * mp.diag([1 / mp.sqrt(v) for v in values]) * vectors.T
-            M = whitening * K * S * K.T * whitening
-            weights = [M[i, i] ** -p["exponent"] for i in range(n)]
-            whitened = whitening * x
-            z = mp.matrix([weights[i] * whitened[i] for i in range(n)])
-            for key, value in dict(x=x, z=z, weights=weights, P=P, P_pred=P_pred).items():
+            whitening = _mp_inverse_sqrt(mp, P_pred)
+            W = _mp_weight_matrix(mp, whitening * K * S * K.T * whitening, alpha, block)
+            z = W * (whitening * x)
+            step = dict(x=x, z=z, weights=[W[i, i] for i in range(n)], W=W, P=P, P_pred=P_pred)
+            for key, value in (step | {"whitening": whitening}).items():
                 keep[key].append(value)
-            keep["whitening"].append(whitening)
 
         def rts(means):
-            s = list(means)
+            s, P_s = list(means), list(keep["P"])
             for t in range(T - 2, -1, -1):
                 G = keep["P"][t] * A.T * keep["P_pred"][t + 1] ** -1
                 s[t] = means[t] + G * (s[t + 1] - A * means[t])
-            return s
+                P_s[t] = keep["P"][t] + G * (P_s[t + 1] - keep["P_pred"][t + 1]) * G.T
+            return s, P_s
 
         x_out, z_out = keep["x"], keep["z"]
         if p["smoother"] == "rts-standardized":
-            z_out = rts(keep["z"])
+            z_out, _ = rts(keep["z"])
         elif p["smoother"] == "rts-state":
-            x_out = rts(keep["x"])
-            z_out = []
+            x_out, _ = rts(keep["x"])
+            z_out = [keep["W"][t] * keep["whitening"][t] * x_out[t] for t in range(T)]
+        elif p["smoother"] == "rts-smoothed-weights":  # Sigma_t = A Sigma_{t-1} A^T + Q
+            (x_out, P_s), z_out, Sigma = rts(keep["x"]), [], P0
             for t in range(T):
-                whitened = keep["whitening"][t] * x_out[t]
-                z_out.append(mp.matrix([keep["weights"][t][i] * whitened[i] for i in range(n)]))
+                Sigma = A * Sigma * A.T + Q
+                root = _mp_inverse_sqrt(mp, Sigma)
+                W = _mp_weight_matrix(mp, root * (Sigma - P_s[t]) * root, alpha, block)
+                z_out.append(W * root * x_out[t])
 
         def array(sequence):
             return np.array([[float(v[i]) for i in range(n)] for v in sequence]).T
@@ -112,14 +154,25 @@ def reference(case, digits=DIGITS):
         )
 
 
+def _weight_matrix(Psi, alpha, block):
+    """``W = blockdiag_i B_i ** -alpha``, ``B_i`` the diagonal blocks of ``Psi`` (eigh)."""
+    W = np.zeros_like(Psi)
+    for i in range(0, len(Psi), block):
+        values, vectors = np.linalg.eigh(Psi[i : i + block, i : i + block])
+        W[i : i + block, i : i + block] = (vectors * values**-alpha) @ vectors.T
+    return W
+
+
 def variant(case, *, inverse=False, joseph=False, sqrtm=False, dtype=np.float64):
     """The SKF written another way: ``inv(S)``, Joseph's form, ``inv(sqrtm(P))``, float32."""
-    p = case.inputs
+    p, block = case.inputs, _block(case)
+    alpha = dtype(p["exponent"])
     L, Y, R, A, Q = (np.asarray(v, dtype=dtype) for v in _matrices(case))
     n, T = L.shape[1], Y.shape[1]
     P = np.asarray(p["theta0"] * np.eye(n) if np.ndim(p["theta0"]) == 0 else p["theta0"], dtype)
     x, log_likelihood = np.zeros(n, dtype), 0.0
-    keep = {key: [] for key in ("x", "z", "weights", "P", "P_pred", "whitening")}
+    P0 = P
+    keep = {key: [] for key in ("x", "z", "W", "P", "P_pred", "whitening")}
     for t in range(T):
         x_pred, P_pred = A @ x, A @ P @ A.T + Q
         S = L @ P_pred @ L.T + R
@@ -134,38 +187,51 @@ def variant(case, *, inverse=False, joseph=False, sqrtm=False, dtype=np.float64)
         log_likelihood -= 0.5 * (
             len(e) * np.log(2 * np.pi) + np.linalg.slogdet(S)[1] + e @ np.linalg.solve(S, e)
         )
-        if sqrtm:
-            whitening = np.linalg.inv(np.real(linalg.sqrtm(P_pred))).astype(dtype)
-        else:
-            values, vectors = np.linalg.eigh(P_pred)
-            whitening = (vectors / np.sqrt(values)) @ vectors.T
-        M = whitening @ K
-        weights = np.einsum("ij,jk,ik->i", M, S, M) ** -dtype(p["exponent"])
-        z = weights * (whitening @ x)
-        for key, value in dict(x=x, z=z, weights=weights, P=P, P_pred=P_pred).items():
+        whitening = _inverse_sqrt(P_pred, sqrtm, dtype)
+        W = _weight_matrix(whitening @ K @ S @ K.T @ whitening, alpha, block)
+        step = dict(x=x, z=W @ (whitening @ x), W=W, P=P, P_pred=P_pred, whitening=whitening)
+        for key, value in step.items():
             keep[key].append(value)
-        keep["whitening"].append(whitening)
     x_f, z_f = np.array(keep["x"]), np.array(keep["z"])
-    x_out, z_out = x_f, z_f
-    if p["smoother"] is not None:
-        means = z_f if p["smoother"] == "rts-standardized" else x_f
-        s = means.copy()
-        for t in range(T - 2, -1, -1):
-            G = np.linalg.solve(keep["P_pred"][t + 1], A @ keep["P"][t]).T
-            s[t] = means[t] + G @ (s[t + 1] - A @ means[t])
-        if p["smoother"] == "rts-standardized":
-            z_out = s
-        else:
-            x_out = s
-            z_out = np.array(keep["weights"]) * np.einsum("tij,tj->ti", keep["whitening"], s)
+    x_out, z_out = _smoothed(p["smoother"], keep, x_f, z_f, (A, Q, P0), alpha, block, sqrtm)
     return dict(
         z=z_out.T,
         z_filtered=z_f.T,
         x=x_out.T,
         x_filtered=x_f.T,
-        weights=np.array(keep["weights"]).T,
+        weights=np.array([np.diag(W) for W in keep["W"]]).T,
         log_likelihood=log_likelihood,
     )
+
+
+def _inverse_sqrt(P, sqrtm, dtype):
+    if sqrtm:
+        return np.linalg.inv(np.real(linalg.sqrtm(P))).astype(dtype)
+    values, vectors = np.linalg.eigh(P)
+    return (vectors / np.sqrt(values)) @ vectors.T
+
+
+def _smoothed(smoother, keep, x_f, z_f, matrices, alpha, block, sqrtm):
+    """``x`` and ``z`` (time-major) of :func:`variant` after its smoother."""
+    if smoother is None:
+        return x_f, z_f
+    A, Q, P0 = matrices
+    means = z_f if smoother == "rts-standardized" else x_f
+    s, P_s = means.copy(), list(keep["P"])
+    for t in range(len(s) - 2, -1, -1):
+        G = np.linalg.solve(keep["P_pred"][t + 1], A @ keep["P"][t]).T
+        s[t] = means[t] + G @ (s[t + 1] - A @ means[t])
+        P_s[t] = keep["P"][t] + G @ (P_s[t + 1] - keep["P_pred"][t + 1]) @ G.T
+    if smoother == "rts-standardized":
+        return x_f, s
+    if smoother == "rts-state":
+        return s, np.einsum("tij,tjk,tk->ti", keep["W"], keep["whitening"], s)
+    z, Sigma = np.empty_like(s), P0  # rts-smoothed-weights: Sigma_t = A Sigma_{t-1} A^T + Q
+    for t in range(len(s)):
+        Sigma = A @ Sigma @ A.T + Q
+        root = _inverse_sqrt(Sigma, sqrtm, s.dtype.type)
+        z[t] = _weight_matrix(root @ (Sigma - P_s[t]) @ root, alpha, block) @ root @ s[t]
+    return s, z
 
 
 def _difference(theirs, expected):
@@ -221,6 +287,61 @@ def _markdown(rows):
         cells = [_cell(row.get(k, "-")) for k in keys]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _float32_runs(case):
+    """Each float32 SKF's outputs on the case, by algorithm."""
+    from .skf_from_the_docs import SKF, case_matrices, run_case
+    from .skf_independent import CORRECT
+
+    arguments, _ = case_matrices(case, SKF())
+    n = case.shape[0]
+    for key, name in (("P0", "theta0"), ("Q", "q")):
+        value = case.inputs[name]
+        arguments[key] = value * np.eye(n) if np.ndim(value) == 0 else value
+    yield "package (solve, eigh)", variant(case, dtype=np.float32)
+    yield "covariance form", run_case(case, SKF(np.float32))
+    labels = {"joseph": "Joseph form", "one_based": "1-based, inv", "information": "information"}
+    for name, skf in CORRECT.items():
+        yield labels[name], skf(**arguments, dtype=np.float32)
+
+
+def float32_table():
+    """Every pinned case: how far each float32 SKF is from it, in compare's measure.
+
+    Arrays: ``max|difference| / max|expected|``; the log-likelihood over the sum of its
+    terms' sizes. The largest over the six outputs.
+
+    Returns
+    -------
+    rows : list of dict
+    ranges : dict
+        Per algorithm, the smallest and largest over the well-conditioned cases, and the
+        value on ``ill_conditioned``.
+    """
+    from skf_ref.conformance import cases
+    from skf_ref.conformance._expected import expected_intermediates, scales
+
+    rows = []
+    for case in cases():
+        expected = {**case.expected, **expected_intermediates(case)}
+        scale = scales(case, expected)
+        row = {"case": case.name}
+        with np.errstate(all="ignore"):
+            for name, outputs in _float32_runs(case):
+                row[name] = max(
+                    float(np.max(np.abs(np.asarray(outputs[k], dtype=float) - expected[k])))
+                    / scale[k]
+                    for k in OUTPUTS
+                )
+        rows.append(row)
+    ranges = {}
+    for name in rows[0]:
+        if name != "case":
+            good = [row[name] for row in rows if row["case"] != "ill_conditioned"]
+            ill = next(row[name] for row in rows if row["case"] == "ill_conditioned")
+            ranges[name] = (min(good), max(good), ill)
+    return rows, ranges
 
 
 def runners_table(octave="octave"):
@@ -280,7 +401,7 @@ def runners_table(octave="octave"):
 def main(argv=None):
     """The command line; returns the exit status."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("what", choices=("precision", "runners", "all"))
+    parser.add_argument("what", choices=("precision", "float32", "runners", "all"))
     parser.add_argument("--write", action="store_true", help=f"write {RESULTS.name}")
     args = parser.parse_args(argv)
     sections, status = [], 0
@@ -293,6 +414,20 @@ def main(argv=None):
             "largest over the outputs of max|difference| / max|expected|.\n\n" + _markdown(rows)
         )
         status |= not holds
+    if args.what in ("float32", "all"):
+        rows, ranges = float32_table()
+        lines = [
+            f"| {name} | {low:.1e} to {high:.1e} | {ill:.1e} |"
+            for name, (low, high, ill) in ranges.items()
+        ]
+        sections.append(
+            "## Single precision, by algorithm\n\nCorrect SKFs computing in float32 against "
+            "each pinned case, in `compare`'s measure (arrays over `max|expected|`, the "
+            "log-likelihood over the sum of its terms' sizes), the largest over the six "
+            "outputs.\n\n" + _markdown(rows) + f"\n\nRanges over the {len(rows) - 1} "
+            "well-conditioned cases, and `ill_conditioned`:\n\n| algorithm | "
+            "well-conditioned | ill_conditioned |\n|---|---|---|\n" + "\n".join(lines)
+        )
     if args.what in ("runners", "all"):
         rows, holds = runners_table()
         sections.append(

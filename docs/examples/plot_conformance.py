@@ -27,23 +27,25 @@ from skf_ref import conformance
 # %%
 # The pinned suite
 # ----------------
-# Version 2 of the suite ships with the package: small fixed problems whose expected
+# Versions 2 and 3 of the suite ship with the package: small fixed problems whose expected
 # outputs were computed once, each as ``.npz`` and MATLAB ``.mat``, with the sha256 of
 # every file in ``manifest.json``. :func:`~skf_ref.conformance.suite.export` copies them
 # byte for byte, whatever ``skf_ref`` is installed, with two runners, ``run_cases.m`` and
 # ``run_cases.py`` (``skf-ref conformance export DIR`` on the command line), and
-# :func:`~skf_ref.conformance.suite.verify` names any file that is not the suite's.
+# :func:`~skf_ref.conformance.suite.verify` names any file that is not the suite's. This
+# example runs version 2 (``suite=2``): the SKF below has neither the standardization per
+# position nor the smoother standardized by its own variance, which version 3 adds.
 
 folder = Path(tempfile.mkdtemp())
 case_dir = folder / "skf-cases"
-written = conformance.export(case_dir, formats=["npz"])
-manifest = conformance.manifest()
+written = conformance.export(case_dir, formats=["npz"], suite=2)
+manifest = conformance.manifest(suite=2)
 print(
     f"suite version {manifest['conformance_version']}, expected outputs computed by "
     f"skf_ref {manifest['skf_ref_version']}"
 )
 print("exported besides the cases:", ", ".join(p.name for p in written if p.suffix != ".npz"))
-print("files that differ from the manifest's sha256:", conformance.verify(case_dir))
+print("files that differ from the manifest's sha256:", conformance.verify(case_dir, suite=2))
 for entry in manifest["cases"]:
     sizes = f"{entry['n_channels']} x {entry['n_sources']} x {entry['n_times']}"
     about = re.split(r": |\. (?=[A-Z])", entry["description"])[0].rstrip(".")

@@ -23,9 +23,12 @@ THEIRS holds any of z, z_filtered, x, x_filtered, weights ((n_sources, n_times))
 log_likelihood: a .npz or .mat file with those names, or a .csv long table with the
 header output,source,step,value (source and step counting from 1; empty for
 log_likelihood). An output given as (n_times, n_sources) is compared as its transpose
-and reported as transposed. Exit status: 0 when every output given agrees; 1 when one
-does not, or is transposed (the report names the known mistake that reproduces the
-numbers, if one does, and says when they agree to the precision of float32 or of the
+and reported as transposed. A .npz or .mat file may also hold the intermediate quantities
+(P_pred, S, K, P_filt, w, ...: docs/conformance.md); the report then names the first that
+leaves the tolerance, its equation, step and row (first_divergence in the JSON). Exit
+status: 0 when everything given agrees; 1 when something does not, or is transposed (the
+report says where it first goes wrong, names a known mistake only when it reproduces or
+explains the numbers, and says when they agree to the precision of float32 or of the
 digits printed); 2 when the files cannot be used (no output name, another shape, not a
 case file).
 """
@@ -44,8 +47,8 @@ def add_parser(subparsers: Any) -> None:
         help="check your SKF's outputs against a conformance case and name the likely mistake",
         description="Compare another implementation's outputs with a conformance case "
         "(skf-ref conformance export): per output, the largest relative difference, the "
-        "first time step over the tolerance and a verdict; when something disagrees, which "
-        "known mistake reproduces the numbers.",
+        "first time step over the tolerance and a verdict; when something disagrees, where it "
+        "first goes wrong and which known mistake, if any, explains the numbers.",
         epilog=_EXAMPLES,
     )
     parser.add_argument("case", type=Path, metavar="CASE_FILE", help="a case's .npz or .mat")

@@ -16,9 +16,11 @@ _EXAMPLES = """\
 examples:
   skf-ref conformance export skf-cases                 # every case as .npz and .mat
   skf-ref conformance export skf-cases --format mat    # MATLAB and Octave only
+  skf-ref conformance export skf-cases-v2 --suite 2    # version 2, as skf_ref 0.3 wrote it
 
 Then run your implementation on each case (its inputs: L, Y, noise_cov, theta0, q,
-transition, exponent, smoother; a scalar noise_cov c is R = c I, a variance), save its
+transition, exponent, smoother, and from version 3 standardize and n_orient; a scalar
+noise_cov c is R = c I, a variance), save its
 outputs (z, z_filtered, x, x_filtered, weights, log_likelihood) and check them with
 `skf-ref compare CASE_FILE YOURS`. The runners run_cases.m (MATLAB, Octave) and
 run_cases.py (Python) do the first two for every case. manifest.json lists the cases,
@@ -60,6 +62,14 @@ def add_parser(subparsers: Any) -> None:
         default=list(_FORMATS),
         help="file formats: NumPy .npz, MATLAB v5 .mat (MATLAB and Octave read it with load)",
     )
+    export.add_argument(
+        "--suite",
+        type=int,
+        choices=(2, 3),
+        default=3,
+        help="the suite version: 3 (this skf_ref's, the default) or 2 (its files byte for "
+        "byte, as skf_ref 0.3 exported them)",
+    )
     export.add_argument("--quiet", action="store_true", help="no summary")
     export.set_defaults(run=run_export)
 
@@ -79,19 +89,19 @@ def run_export(args: argparse.Namespace) -> list[Path]:
     """
     import warnings
 
-    from ..conformance import CONFORMANCE_VERSION, export, manifest
+    from ..conformance import export, manifest
 
     with warnings.catch_warnings(record=True) as kept:
         warnings.simplefilter("always", UserWarning)
-        written = export(args.directory, args.format)
+        written = export(args.directory, args.format, suite=args.suite)
     for warning in kept:  # a runner the user edited: kept, the shipped one beside it
         print(f"skf-ref: note: {warning.message}", file=sys.stderr)
     if not args.quiet:
         n_cases = sum(path.suffix in (".npz", ".mat") for path in written)
         print(
             f"wrote {n_cases} case files, the runners run_cases.m and run_cases.py, and "
-            f"manifest.json to {args.directory} (conformance suite version "
-            f"{CONFORMANCE_VERSION}, computed by skf_ref {manifest()['skf_ref_version']})",
+            f"manifest.json to {args.directory} (conformance suite version {args.suite}, "
+            f"computed by skf_ref {manifest(args.suite)['skf_ref_version']})",
             file=sys.stderr,
         )
     return written

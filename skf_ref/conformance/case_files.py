@@ -11,10 +11,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._utils.atomic_files import atomic_path, check_output_path
-from .._utils.checks import InputError, check_array, check_instance
+from .._utils.checks import InputError, check_array, check_choice, check_instance
 from ..method._result import readonly
 from ..method._settings import check_smoother
-from .cases import EXTRAS, INPUTS, OUTPUTS, Case, as_value
+from ._intermediates import NAMES
+from .cases import EXTRAS, INPUTS, OPTIONS, OUTPUTS, Case, as_value
 
 __all__ = ["FORMATS", "read_case", "write_case"]
 
@@ -27,6 +28,8 @@ _ABOUT = (
     "conformance_version",
     "skf_ref_version",
 )
+#: The expected intermediates a case file may carry (its inputs theta0 and q aside).
+_CARRIED = tuple(name for name in NAMES if name not in (*OUTPUTS, *INPUTS))
 _ZIP_DATE = (1980, 1, 1, 0, 0, 0)  # the earliest date a zip file can hold
 # the 116 bytes of text that open a MATLAB v5 file; scipy writes the time of writing there
 _MAT_HEADER = b"MATLAB 5.0 MAT-file, skf_ref conformance case".ljust(116)
@@ -87,6 +90,23 @@ def _scalar_or_square(variables, name, path, n):
     return readonly(check_array(f"{path}: {name}", value, (n, n)))
 
 
+def _options(variables, path, n):
+    """``standardize`` and ``n_orient`` (version 3 on); a file of version 2 has neither."""
+    found = dict(OPTIONS)
+    if "standardize" in variables:
+        found["standardize"] = check_choice(
+            f"{path}: standardize", _text(variables, "standardize", path), ("column", "position")
+        )
+    if "n_orient" in variables:
+        n_orient = int(check_array(f"{path}: n_orient", variables["n_orient"], ()))
+        if n_orient not in (1, 3) or n % n_orient:
+            raise InputError(
+                f"{path}: n_orient must be 1 or 3 and divide n_sources ({n}), got {n_orient}"
+            )
+        found["n_orient"] = n_orient
+    return found
+
+
 def read_case(path: str | os.PathLike) -> Case:
     """Read a case written by :func:`write_case` (or :func:`export`).
 
@@ -121,6 +141,7 @@ def read_case(path: str | os.PathLike) -> Case:
         inputs["smoother"] = check_smoother(_text(variables, "smoother", path))
     except InputError as err:
         raise InputError(f"{path}: {err}") from None
+    inputs |= _options(variables, path, n)
     expected: dict[str, NDArray[np.float64] | float] = {
         name: readonly(check_array(f"{path}: {name}", variables[name], (n, T)))
         for name in OUTPUTS
@@ -133,6 +154,7 @@ def read_case(path: str | os.PathLike) -> Case:
         for name in EXTRAS
         if name in variables
     }
+    carried = {name: as_value(variables[name]) for name in variables if name in _CARRIED}
     return Case(
         name=_text(variables, "case", path),
         description=_text(variables, "description", path),
@@ -145,4 +167,5 @@ def read_case(path: str | os.PathLike) -> Case:
             check_array(f"{path}: version", variables["conformance_version"], ())
         ),
         skf_ref_version=_text(variables, "skf_ref_version", path),
+        intermediates=carried,
     )

@@ -61,12 +61,20 @@ def _matrices(model):
     return model.L, model.R, *(model.matrix(name) for name in ("transition", "q", "theta0"))
 
 
+def _block(case):
+    """The columns standardized together: the case's ``n_orient`` by position, else 1."""
+    p = case.inputs
+    return int(p.get("n_orient", 1)) if p.get("standardize") == "position" else 1
+
+
 def _outputs(filtered, model, case, smoother=None):
     """Smooth (the case's smoother unless another is given) and package a filter's output."""
     smoother = smoother or case.inputs["smoother"]
-    exponent = filtered["exponent"]
-    x, z = dense.smooth(filtered, smoother, model.matrix("transition"), exponent)
-    rec = dense.result(filtered, x, z, model, exponent, smoother, "suspect")
+    exponent, block = filtered["exponent"], _block(case)
+    A, Q, P0 = (model.matrix(name) for name in ("transition", "q", "theta0"))
+    x, z = dense.smooth(filtered, smoother, A, exponent, block, prior=(Q, P0))
+    standardization = (case.inputs.get("standardize", "column"), block if block > 1 else None)
+    rec = dense.result(filtered, x, z, model, exponent, smoother, "suspect", standardization)
     return {**{name: getattr(rec, name) for name in ARRAYS}, "log_likelihood": rec.log_likelihood}
 
 
@@ -79,7 +87,8 @@ def _filtered(case, **changes):
     model, Y = _model(case, **changes)
     L, R, A, Q, P0 = _matrices(model)
     exponent = changes.get("exponent", case.inputs["exponent"])
-    return dense.kalman_filter(L, Y, R, A, Q, P0, exponent) | {"exponent": exponent}, model
+    f = dense.kalman_filter(L, Y, R, A, Q, P0, exponent, _block(case))
+    return f | {"exponent": exponent}, model
 
 
 def _rerun(case, **changes):
@@ -92,7 +101,8 @@ def _restandardized(f, w, whitening):
     """``f`` with ``z_t = Diag(w_t ** -alpha) whitening_t x_{t|t}`` (§2.2 eqs. (6)-(7))."""
     exponent = f["exponent"]
     weights, z = standardize(w, np.einsum("tij,tj->ti", whitening, f["x_filt"]), exponent)
-    return {**f, "w": w, "P_pred_inv_sqrt": whitening, "weights": weights, "z": z}
+    blocks = weights[:, :, None, None]  # W_t's 1 x 1 blocks, which "rts-state" applies again
+    return {**f, "w": w, "P_pred_inv_sqrt": whitening, "weights": weights, "z": z, "W": blocks}
 
 
 def _posterior_weights(f):
@@ -129,6 +139,8 @@ def transposed(case: Case) -> dict[str, Any] | None:
 
 def posterior_in_weights(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (7) with ``P_{t|t}`` for ``P_{t|t-1}``: the weights from the updated covariance."""
+    if _block(case) > 1:  # a mistake in the standardization of each column on its own
+        return None
     f, model = _filtered(case)
     w, _ = _posterior_weights(f)
     f = _restandardized(f, w, f["P_pred_inv_sqrt"])
@@ -137,6 +149,8 @@ def posterior_in_weights(case: Case) -> dict[str, Any] | None:
 
 def posterior_in_whitening(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (6) with ``P_{t|t}^{-1/2} x_{t|t}``: whitened by the updated covariance."""
+    if _block(case) > 1:  # a mistake in the standardization of each column on its own
+        return None
     f, model = _filtered(case)
     _, whitening = _posterior_weights(f)
     f = _restandardized(f, f["w"], whitening)
@@ -145,6 +159,8 @@ def posterior_in_whitening(case: Case) -> dict[str, Any] | None:
 
 def posterior_in_both(case: Case) -> dict[str, Any] | None:
     """§2.2 eqs. (6) and (7) with ``P_{t|t}`` for ``P_{t|t-1}`` in weights and whitening."""
+    if _block(case) > 1:  # a mistake in the standardization of each column on its own
+        return None
     f, model = _filtered(case)
     w, whitening = _posterior_weights(f)
     f = _restandardized(f, w, whitening)
@@ -158,6 +174,8 @@ def posterior_weights_toolbox_form(case: Case) -> dict[str, Any] | None:
     The toolbox writes the weights in this form, which equals §2.2 eq. (7) only with the
     predicted ``P_{t|t-1}`` in ``B``.
     """
+    if _block(case) > 1:  # a mistake in the standardization of each column on its own
+        return None
     f, model = _filtered(case)
     w = _toolbox_weights(f, model.R, model.L)
     f = _restandardized(f, w, f["P_pred_inv_sqrt"])
@@ -172,6 +190,8 @@ def standardized_after_update(case: Case) -> dict[str, Any] | None:
     ``z_t = W_t P_{t|t}^{-1/2} x_{t|t}``: the standardization placed after the update, where
     the covariance at hand is ``P_{t|t}``, instead of on ``P_{t|t-1}``.
     """
+    if _block(case) > 1:  # a mistake in the standardization of each column on its own
+        return None
     f, model = _filtered(case)
     w = _toolbox_weights(f, model.R, model.L)
     whitening = np.array([inverse_sqrt(P) for P in f["P_filt"]])
@@ -181,6 +201,8 @@ def standardized_after_update(case: Case) -> dict[str, Any] | None:
 
 def exponent_on_square_root(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (7) as ``(w_t ** 1/2) ** -alpha``: the exponent on the square root of ``w_t``."""
+    if _block(case) > 1:  # a mistake in the standardization of each column on its own
+        return None
     f, model = _filtered(case)
     f = _restandardized(f, np.sqrt(f["w"]), f["P_pred_inv_sqrt"])
     return _outputs(f, model, case)
@@ -199,7 +221,7 @@ def exponent_dropped(case: Case) -> dict[str, Any] | None:
 def other_smoother(case: Case) -> dict[str, Any] | None:
     """§2.3 eq. (4) over the state ``x`` instead of ``z``, or over ``z`` instead of ``x``."""
     smoother = case.inputs["smoother"]
-    if smoother is None:
+    if smoother in (None, "rts-smoothed-weights"):
         return None
     f, model = _filtered(case)
     swapped = {"rts-standardized": "rts-state", "rts-state": "rts-standardized"}[smoother]
@@ -241,7 +263,8 @@ def noise_variance_as_std(case: Case) -> dict[str, Any] | None:
 
 
 def transition_ignored(case: Case) -> dict[str, Any] | None:
-    """§2.2 eq. (4) with ``A = I`` whatever the transition (the toolbox: any diagonal ``A``)."""
+    """§2.2 eq. (4) with ``A = I`` whatever the transition (the toolbox, when ``A`` is
+    diagonal with some diagonal entry exactly 1)."""
     A = case.inputs["transition"]
     if np.array_equal(A, np.eye(case.shape[0]) if np.ndim(A) else 1.0):
         return None
@@ -250,6 +273,8 @@ def transition_ignored(case: Case) -> dict[str, Any] | None:
 
 def no_first_prediction(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (4) skipped at ``t = 1``: update, then predict, so ``P_{1|0} = P_0``."""
+    if _block(case) > 1:  # a mistake in the standardization of each column on its own
+        return None
     model, Y = _model(case)
     L, R, A, Q, P0 = _matrices(model)
     T, n = Y.shape[1], L.shape[1]
@@ -271,6 +296,7 @@ def no_first_prediction(case: Case) -> dict[str, Any] | None:
         for key, value in step.items():
             f[key][t] = value
         x_pred, P_pred = dense.predict(x, P, A, Q)
+    f["W"] = f["weights"][:, :, None, None]  # W_t's 1 x 1 blocks
     return _outputs(f, model, case)
 
 

@@ -1,12 +1,13 @@
 """The pinned suite: the committed case files, their manifest and checksums, and export.
 
 Version :data:`~skf_ref.conformance.CONFORMANCE_VERSION` of the suite is a folder of files
-in the package, ``suite_v2/``: each case as ``.npz`` and MATLAB v5 ``.mat``, and
+in the package, ``suite_v3/``: each case as ``.npz`` and MATLAB v5 ``.mat``, and
 ``manifest.json`` with the sha256 of every file. They were written once by :func:`build`
 and never change: :func:`export` copies them byte for byte, and :func:`cases` reads them, so
 a later ``skf_ref`` cannot change what the suite expects. A test recomputes every case
 with the installed package and fails when it drifts from the pinned outputs beyond a case's
-tolerance. A changed case is a new suite version in a new folder.
+tolerance. A changed case is a new suite version in a new folder; the earlier pinned
+version, ``suite_v2/``, stays, and :func:`export` copies it on request (``suite=2``).
 
 The runners, ``runners/run_cases.py`` and ``runners/run_cases.m``, run an implementation
 on every case and save its outputs for ``skf-ref compare``; :func:`export` copies them
@@ -33,6 +34,7 @@ from .cases import (
     CONFORMANCE_VERSION,
     FLOAT32_TOLERANCE,
     INPUTS,
+    OPTIONS,
     OUTPUTS,
     TOLERANCE,
     Case,
@@ -42,6 +44,7 @@ from .cases import (
 __all__ = [
     "RUNNERS",
     "SUITE",
+    "SUITES",
     "build",
     "cases",
     "check_pinned",
@@ -51,8 +54,10 @@ __all__ = [
     "verify",
 ]
 
-#: The folder of the pinned suite, inside the installed package.
-SUITE = Path(__file__).resolve().with_name(f"suite_v{CONFORMANCE_VERSION}")
+#: The folder of each pinned version of the suite, inside the installed package.
+SUITES = {v: Path(__file__).resolve().with_name(f"suite_v{v}") for v in (2, CONFORMANCE_VERSION)}
+#: The folder of the pinned suite, this version's.
+SUITE = SUITES[CONFORMANCE_VERSION]
 #: The runner examples :func:`export` copies beside the cases (MATLAB/Octave and Python).
 RUNNERS = tuple(
     Path(__file__).resolve().parent / "runners" / f"run_cases.{ext}" for ext in ("m", "py")
@@ -74,12 +79,21 @@ def sha256(path: str | os.PathLike) -> str:
 
 
 @cache
-def _pinned_manifest():
-    return json.loads((SUITE / "manifest.json").read_text(encoding="utf-8"))
+def _pinned_manifest(suite: int = CONFORMANCE_VERSION) -> dict[str, Any]:
+    return json.loads((SUITES[suite] / "manifest.json").read_text(encoding="utf-8"))
 
 
-def manifest() -> dict[str, Any]:
+def _checked_suite(suite: int) -> int:
+    return int(check_choice("suite", suite, tuple(SUITES)))
+
+
+def manifest(suite: int = CONFORMANCE_VERSION) -> dict[str, Any]:
     """The suite's ``manifest.json``: versions, tolerances, layout, and each case's files.
+
+    Parameters
+    ----------
+    suite : int
+        The suite version (:data:`SUITES`); this version's by default.
 
     Returns
     -------
@@ -91,12 +105,13 @@ def manifest() -> dict[str, Any]:
 
     Examples
     --------
-    >>> manifest()["conformance_version"]
-    2
+    >>> manifest()["conformance_version"], manifest(suite=2)["conformance_version"]
+    (3, 2)
     >>> sorted(manifest()["cases"][0]["files"])
     ['original_skf.mat', 'original_skf.npz']
     """
-    return json.loads(json.dumps(_pinned_manifest()))  # a copy the caller may change
+    pinned = _pinned_manifest(_checked_suite(suite))
+    return json.loads(json.dumps(pinned))  # a copy the caller may change
 
 
 @cache
@@ -123,13 +138,15 @@ def cases() -> list[Case]:
     return list(_pinned_cases())
 
 
-def verify(directory: str | os.PathLike = SUITE) -> list[str]:
+def verify(directory: str | os.PathLike = SUITE, suite: int = CONFORMANCE_VERSION) -> list[str]:
     """The files of ``directory`` whose sha256 differs from the manifest's, or that are missing.
 
     Parameters
     ----------
     directory : path-like
         A folder :func:`export` wrote (any of its formats), or the pinned suite itself.
+    suite : int
+        The suite version it holds (:data:`SUITES`); this version's by default.
 
     Returns
     -------
@@ -149,33 +166,34 @@ def verify(directory: str | os.PathLike = SUITE) -> list[str]:
     >>> verify()
     []
     """
-    directory = check_path("directory", directory)
+    directory, suite = check_path("directory", directory), _checked_suite(suite)
     if not directory.is_dir():
         what = "is a file, not a folder" if directory.exists() else "does not exist"
         raise InputError(f"{directory} {what}: give the folder skf-ref conformance export wrote")
-    files = _pinned_files()
+    files = _pinned_files(suite)
     present = {Path(name).suffix for name in files if (directory / name).is_file()}
     if not present:
         raise InputError(
             f"{directory} holds no file of the conformance suite (version "
-            f"{CONFORMANCE_VERSION}), such as {next(iter(files))}: export it there first "
+            f"{suite}), such as {next(iter(files))}: export it there first "
             "(skf-ref conformance export DIR)"
         )
     changed = [
         n for n, d in files.items() if (directory / n).is_file() and sha256(directory / n) != d
     ]
     manifest_file = directory / "manifest.json"
-    if manifest_file.is_file() and sha256(manifest_file) != sha256(SUITE / "manifest.json"):
+    if manifest_file.is_file() and sha256(manifest_file) != sha256(
+        SUITES[suite] / "manifest.json"
+    ):
         changed.append("manifest.json")
     missing = [n for n in files if Path(n).suffix in present and not (directory / n).is_file()]
     return changed + missing
 
 
-def _pinned_files() -> dict[str, str]:
-    """Every case file of the suite: ``{file name: sha256}``."""
-    return {
-        name: digest for e in _pinned_manifest()["cases"] for name, digest in e["files"].items()
-    }
+def _pinned_files(suite: int = CONFORMANCE_VERSION) -> dict[str, str]:
+    """Every case file of a version of the suite: ``{file name: sha256}``."""
+    cases = _pinned_manifest(suite)["cases"]
+    return {name: digest for e in cases for name, digest in e["files"].items()}
 
 
 def check_pinned(path: str | os.PathLike, case: Case) -> None:
@@ -197,14 +215,15 @@ def check_pinned(path: str | os.PathLike, case: Case) -> None:
     skf_ref.InputError
         The file claims a pinned case and its sha256 is not the pinned one.
     """
-    if case.conformance_version != CONFORMANCE_VERSION:
+    version = case.conformance_version
+    if version not in SUITES:
         return  # another version of the suite: not pinned in this package
     path = Path(path)
-    pinned = _pinned_files().get(f"{case.name}{path.suffix}")
+    pinned = _pinned_files(version).get(f"{case.name}{path.suffix}")
     if pinned is not None and sha256(path) != pinned:
         raise InputError(
             f"{path} says it is case {case.name!r} of conformance suite version "
-            f"{CONFORMANCE_VERSION}, but it is not the suite's file (its sha256 differs from "
+            f"{version}, but it is not the suite's file (its sha256 differs from "
             "the pinned one): it was changed. Export the suite again (skf-ref conformance "
             "export DIR) and compare with its file"
         )
@@ -228,7 +247,11 @@ def _runner_destinations(directory: Path) -> list[tuple[Path, Path]]:
     return plan
 
 
-def export(directory: str | os.PathLike, formats: Sequence[str] = FORMATS) -> list[Path]:
+def export(
+    directory: str | os.PathLike,
+    formats: Sequence[str] = FORMATS,
+    suite: int = CONFORMANCE_VERSION,
+) -> list[Path]:
     """Copy the suite's files in ``formats``, its manifest and the runners to ``directory``.
 
     The case files and ``manifest.json`` are the pinned ones, byte for byte: the manifest
@@ -242,6 +265,9 @@ def export(directory: str | os.PathLike, formats: Sequence[str] = FORMATS) -> li
     directory : path-like
         Created if missing.
     formats : sequence of {"npz", "mat"}
+    suite : int
+        The suite version (:data:`SUITES`): this version's by default; ``2`` copies
+        version 2's files, byte for byte as earlier packages exported them.
 
     Returns
     -------
@@ -261,14 +287,15 @@ def export(directory: str | os.PathLike, formats: Sequence[str] = FORMATS) -> li
     >>> [path.name for path in written][:2], written[-1].name
     (['original_skf.mat', 'free_orientation.mat'], 'manifest.json')
     """
-    formats = _checked_formats(formats)
+    formats, suite = _checked_formats(formats), _checked_suite(suite)
     directory = check_path("directory", directory)
     if directory.exists() and not directory.is_dir():
         raise InputError(f"{directory} is a file: give a folder (made if missing)")
-    names = [f"{e['name']}.{fmt}" for e in _pinned_manifest()["cases"] for fmt in formats]
+    names = [f"{e['name']}.{fmt}" for e in _pinned_manifest(suite)["cases"] for fmt in formats]
     runners = _runner_destinations(directory)
-    plan = [(SUITE / name, directory / name) for name in names]
-    plan += [*runners, (SUITE / "manifest.json", directory / "manifest.json")]
+    folder = SUITES[suite]
+    plan = [(folder / name, directory / name) for name in names]
+    plan += [*runners, (folder / "manifest.json", directory / "manifest.json")]
     directory.mkdir(parents=True, exist_ok=True)
     for source, destination in plan:
         with atomic_path(destination) as tmp:
@@ -326,6 +353,7 @@ def build(directory: str | os.PathLike, formats: Sequence[str] = FORMATS) -> lis
             "description": case.description,
             "exercises": list(case.exercises),
             "also_holds": list(case.extras),
+            "intermediates": list(case.intermediates),
             "n_channels": case.inputs["L"].shape[0],
             "n_sources": case.shape[0],
             "n_times": case.shape[1],
@@ -350,18 +378,25 @@ def _about():
         "skf_ref_version": __version__,
         "skf_ref_version_means": "the skf_ref that computed the expected outputs",
         "tolerance": TOLERANCE,
-        "tolerance_means": "largest |theirs - expected| over largest |expected|, per output",
+        "tolerance_means": "largest |theirs - expected| at a step over the output's own scale "
+        "(largest |expected|; the log-likelihood's: the sum of the sizes of its terms)",
         "float32_tolerance": FLOAT32_TOLERANCE,
         "layout": {
             "L": "(n_channels, n_sources)",
             "Y": "(n_channels, n_times); column t is y_t",
             "noise_cov, theta0, q, transition": "a scalar c means c times the identity",
             "noise_cov": "the noise covariance R: a scalar c is R = c I, a variance (not sigma)",
-            "smoother": "text: none, rts-standardized or rts-state",
+            "smoother": "text: none, rts-standardized, rts-state or rts-smoothed-weights",
+            "standardize": "text: column (each source on its own) or position (n_orient "
+            "columns of a position as a whole, MNE's order)",
+            "n_orient": "an integer, 1 or 3: the columns of a position",
             "z, z_filtered, x, x_filtered, weights": "(n_sources, n_times)",
             "log_likelihood": "a scalar",
+            "x_pred, P_pred, S, K, P_filt, w, G, P_smooth, Sigma, w_smooth": "the expected "
+            "intermediates (cases of at most 50 steps; those of the case's smoother): time "
+            "last, P_pred is (n_sources, n_sources, n_times), G has n_times - 1 steps",
         },
-        "inputs": list(INPUTS),
+        "inputs": [*INPUTS, *OPTIONS],
         "outputs": list(OUTPUTS),
         "documentation": "docs/conformance.md of the skf_ref repository",
     }

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from .._utils.checks import InputError, describe
+from ._intermediates import NAMES
 from .cases import OUTPUTS
 
 __all__ = ["checked", "read_outputs"]
@@ -95,8 +96,8 @@ def read_outputs(theirs: Any) -> tuple[dict[str, Any], str]:
     Returns
     -------
     variables : dict
-        Every name ``theirs`` holds; from a ``.npz`` or ``.mat`` file, only the outputs'
-        values are read (the other names map to None).
+        Every name ``theirs`` holds; from a ``.npz`` or ``.mat`` file, only the values of
+        the outputs and the intermediates are read (the other names map to None).
     source : str
     """
     if isinstance(theirs, Mapping):
@@ -116,8 +117,9 @@ def read_outputs(theirs: Any) -> tuple[dict[str, Any], str]:
         return _read_csv(path), str(path)
     if path.suffix not in (".npz", ".mat"):
         raise InputError(f"{path}: give their outputs as .npz, .mat or .csv")
-    variables = read_variables(path)  # lazy: only the outputs are read, the rest named
-    return {k: variables[k] if k in OUTPUTS else None for k in variables}, str(path)
+    variables = read_variables(path)  # lazy: only what compare takes is read, the rest named
+    wanted = (*OUTPUTS, *NAMES)
+    return {k: variables[k] if k in wanted else None for k in variables}, str(path)
 
 
 def checked(name: str, value: Any, shape: tuple[int, int], source: str) -> float | np.ndarray:

@@ -29,6 +29,12 @@ __all__ = ["Variables", "existing_file", "read_npy", "read_variables", "reading"
 
 _NPY_MAGIC = b"\x93NUMPY"
 _ZIP_MAGIC = b"PK\x03\x04"
+#: What to do with a .mat file no reader takes: Octave saves text by default (or HDF5 of
+#: its own layout with ``-hdf5``), which only Octave reads.
+_SAVE_V7 = (
+    ". If Octave wrote it (its default format is text, and -hdf5 is a layout of its own), "
+    "save it as a MATLAB v7 file: save('-v7', 'mine.mat', ...)"
+)
 _NO_PICKLES = (
     "holds Python objects (a pickle), which skf_ref never loads: save numbers, and text as "
     "np.array(names, dtype=str)"
@@ -274,5 +280,8 @@ def read_variables(path: object) -> Variables:
         return _mat_v5(path)
     except InputError as err:
         if "v7.3" not in str(err) and "HDF" not in str(err):
-            raise
-    return _mat_v73(path)
+            raise InputError(f"{err}{_SAVE_V7}") from err
+    try:
+        return _mat_v73(path)
+    except InputError as err:
+        raise InputError(f"{err}{_SAVE_V7}") from err

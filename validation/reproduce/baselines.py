@@ -6,10 +6,12 @@ sources, the deep source alone and the superficial source alone. Each data set g
 
 - the twelve SKF settings (exponent 0.5, 1, 1.25, 1.5; no smoother, ``rts-standardized``,
   ``rts-state``) at the paper's tuned priors (EP 20 / PM 0 dB), the way the sweeps run
-  them (one spectral model per noise level);
+  them (one spectral model per noise level), and on the scored seeds :data:`EXTRA_SKF`
+  (exponent 0.5 without smoothing at the paper's unsmoothed priors, EP 0 / PM 0 dB);
 - MNE's minimum norm, dSPM, sLORETA and eLORETA (``mne.minimum_norm``, free orientation,
-  no depth weighting, as the SKF has none; lambda2 = 1/9 and lambda2 = 10^(-SNR/10) from
-  the run's true peak SNR), one prepared operator per noise level, method and lambda2;
+  no depth weighting, as the SKF has none; lambda2 = 1/9, lambda2 = 10^(-SNR/10) from
+  the run's true peak SNR, and the lambda2 matched to the SKF's PM-SNR of 0 dB), one
+  prepared operator per noise level, method and lambda2;
 - LCMV (``mne.beamformer.make_lcmv``, free orientation, unit-noise-gain weights,
   regularization :data:`LCMV_REG` = 0.05 of the mean eigenvalue), from the run's data
   covariance: the second moment of the run's 41 samples, Y Y^T / T;
@@ -64,8 +66,19 @@ BASELINES = "baselines"
 LCMV_REG = 0.05
 #: MxNE's alpha, % of alpha_max (fixed before any run).
 MXNE_ALPHA = 50.0
-#: The two lambda2 rules: label -> lambda2 from the peak SNR (dB).
-LAMBDA2 = {"1/9": lambda snr_db: 1.0 / 9.0, "SNR": lambda snr_db: 10.0 ** (-snr_db / 10.0)}
+#: The lambda2 rules: label -> lambda2 from the peak SNR (dB).
+LAMBDA2 = {
+    "1/9": lambda snr_db: 1.0 / 9.0,
+    "SNR": lambda snr_db: 10.0 ** (-snr_db / 10.0),
+    "matched": lambda snr_db: MATCHED_LAMBDA2,
+}
+#: MNE's lambda2 matched to the SKF's PM-SNR of 0 dB: 10^(-PM/10) r / n, with the whitener's
+#: rank r = n - 1 (the average reference) on the 64 BioSemi or the 59 sample electrodes: the
+#: value for 64 channels; the real-noise condition's 59 channels give 0.983 (0.01 dB apart).
+MATCHED_LAMBDA2 = 63.0 / 64.0
+#: SKF settings beyond the twelve at EP 20 / PM 0 dB, scored only (not the old rule's
+#: candidates): label -> (exponent, smoother, EP-SNR, PM-SNR). The paper's unsmoothed priors.
+EXTRA_SKF = {"0.5/none/EP0-PM0": (0.5, None, 0.0, 0.0)}
 #: The three data sets: label -> sources simulated.
 DATA = {"both": ("deep", "superficial"), "deep": ("deep",), "superficial": ("superficial",)}
 #: The columns of a results file.
@@ -77,6 +90,8 @@ COLUMNS = (
     "method",
     "setting",
     "deep_region_db",
+    "deep_level",
+    "deep_epoch_db",
     "superficial_region_db",
     "deep_error_mm",
     "superficial_error_mm",
@@ -144,7 +159,7 @@ def describe(settings):
             for c in conditions(settings)
         },
         choice_seeds=choice_seeds(settings),
-        skf=[list(EXPONENTS), list(SMOOTHERS), list(TUNED_PRIOR)],
+        skf=[list(EXPONENTS), list(SMOOTHERS), list(TUNED_PRIOR), list(EXTRA_SKF)],
         mne=[list(MINIMUM_NORM_METHODS), list(LAMBDA2), LCMV_REG, MXNE_ALPHA],
     )
 
@@ -198,11 +213,17 @@ class _Timer:
         self.seconds = time.perf_counter() - self.start
 
 
-def _skf(head, sims, noise):
-    """The SKF settings' amplitudes: (method, setting, data, seed) -> (amplitude, run s),
-    and the preparation's seconds."""
+def _spectral(L, noise_std, priors, T):
     from skf_ref.method import SpectralModel, StateSpaceModel, priors_from_snr
 
+    ep, pm = priors
+    theta0, q = priors_from_snr(L, noise_std, pm, ep, T)
+    return SpectralModel(StateSpaceModel.create(L, noise_std=noise_std, theta0=theta0, q=q), T)
+
+
+def _skf(head, sims, noise, extras=False):
+    """The SKF settings' amplitudes: (method, setting, data, seed) -> (amplitude, run s),
+    and the preparation's seconds. ``extras``: also :data:`EXTRA_SKF`."""
     first = next(iter(sims.values()))
     with _Timer() as prep:
         if noise == "white":  # as the sweeps run it
@@ -211,17 +232,21 @@ def _skf(head, sims, noise):
             W = _whitener(first.noise_cov)
             L, noise_std = W @ head.leadfield, 1.0
         T = first.Y.shape[1]
-        theta0, q = priors_from_snr(L, noise_std, TUNED_PRIOR[1], TUNED_PRIOR[0], T)
-        model = StateSpaceModel.create(L, noise_std=noise_std, theta0=theta0, q=q)
-        spectral = SpectralModel(model, T)
+        spectral = _spectral(L, noise_std, TUNED_PRIOR, T)
+    settings = [
+        (f"{exponent:g}/{smoother}", spectral, exponent, None if smoother == "none" else smoother)
+        for exponent, smoother in product(EXPONENTS, SMOOTHERS)
+    ]
+    if extras:
+        for label, (exponent, smoother, ep, pm) in EXTRA_SKF.items():
+            settings.append((label, _spectral(L, noise_std, (ep, pm), T), exponent, smoother))
     out = {}
     for (data, seed), sim in sims.items():
         Y = sim.Y if W is None else W @ sim.Y
-        for exponent, smoother in product(EXPONENTS, SMOOTHERS):
+        for label, model, exponent, smoother in settings:
             with _Timer() as run:
-                rec = spectral.apply(Y, exponent, None if smoother == "none" else smoother)
-                amplitude = rec.amplitude(3)
-            out["SKF", f"{exponent:g}/{smoother}", data, seed] = (amplitude, run.seconds)
+                amplitude = model.apply(Y, exponent, smoother).amplitude(3)
+            out["SKF", label, data, seed] = (amplitude, run.seconds)
     return out, {"SKF": prep.seconds}
 
 
@@ -312,7 +337,7 @@ def run_level(head_kwargs, condition, snr_db, seeds, with_baselines):
         for seed in seeds
     }
     truth = next(iter(sims.values())).truth
-    results, prep = _skf(head, sims, condition.noise)
+    results, prep = _skf(head, sims, condition.noise, extras=with_baselines)
     if with_baselines:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # MNE's rank and convergence chatter
@@ -332,6 +357,7 @@ def run_level(head_kwargs, condition, snr_db, seeds, with_baselines):
                 method=method,
                 setting=setting,
                 deep_region_db=summary["deep_region_db"],
+                **_deep_levels(amplitude, head, truth),
                 superficial_region_db=summary["superficial_region_db"],
                 deep_error_mm=_error(amplitude, summary, truth, 0),
                 superficial_error_mm=_error(amplitude, summary, truth, 1),
@@ -340,6 +366,18 @@ def run_level(head_kwargs, condition, snr_db, seeds, with_baselines):
             )
         )
     return rows
+
+
+def _deep_levels(amplitude, head, truth):
+    """The deep region's maximum at its peak time (absolute), and that re. the epoch's
+    maximum over every position and sample (dB; -inf for an empty region)."""
+    from skf_ref.study.regions import region_mask
+
+    index = truth.peak_indices[0]
+    level = float(amplitude[region_mask(head.positions, truth.positions[0]), index].max())
+    peak = float(amplitude.max())
+    epoch = 20 * np.log10(level / peak) if level > 0 and peak > 0 else -np.inf
+    return dict(deep_level=level, deep_epoch_db=epoch)
 
 
 def _error(amplitude, summary, truth, source):

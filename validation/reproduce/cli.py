@@ -101,7 +101,11 @@ def _parser():
         description="Reproduce the paper's findings with fixed decision rules; write "
         "REPORT.md, figures and the sweep tables.",
     )
-    parser.add_argument("--quick", action="store_true", help="3 seeds, ~1000 positions, 20 dB map")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="a smoke run: 2 seeds, 500 positions, 12 mm grids, tiny sets (not evidence)",
+    )
     parser.add_argument(
         "--out",
         type=Path,
@@ -275,6 +279,22 @@ def _specificity(settings, out, n_jobs, results, common):
     return specificity_report.specificity_text(table, choice, settings, figures)
 
 
+def _worth(settings, out, args, common):
+    """The study of the SKF's worth (v2): run it, write its figures and headline files.
+
+    Returns
+    -------
+    worth : Worth
+    text : str
+        Its sections of REPORT.md.
+    """
+    from .worth.run import run_worth
+    from .worth.text import worth_text
+
+    worth = run_worth(settings, out, args.jobs, fresh=args.fresh, **common)
+    return worth, worth_text(worth, out)
+
+
 _NO_DATASET = (
     "reproduce: the BEM cells need MNE's testing dataset: give --mne-testing-data DIR (DIR: "
     "the folder mne.datasets.testing.data_path() returns; nothing is downloaded); running "
@@ -330,6 +350,7 @@ def main(argv=None):
         best_cell_ = next(cell for cell in settings.cells if cell.name == best)
         variants = run_variants(best_cell_, settings, out, args.jobs, progress, **common)
     headline, details = _specificity(settings, out, args.jobs, results, common)
+    worth, worth_part = _worth(settings, out, args, common)
     total = sum(len(read_results(out / name)) for name in names)
     skipped = None if testing is not None else "MNE's testing dataset was not given or found"
     data = Overview(
@@ -346,9 +367,13 @@ def main(argv=None):
     generated = _generated(elapsed, args.jobs, total - before, total)
     title, rest = text.split("\n", 1)
     before_rules, rules = rest.split("\n## Decision rules\n", 1)
-    rest = f"{before_rules}\n{headline}\n## Decision rules\n{rules.rstrip()}\n\n{details}"
+    rules = f"## Decision rules\n{rules.rstrip()}\n\n{details}"
+    rest = f"{before_rules}\n{worth_part}\n{headline}\n{rules}"
     with atomic_path(out / "REPORT.md") as tmp:
         tmp.write_text(f"{title}\n\n{generated}\n{rest}")
+    from .worth.text import write_headline
+
+    write_headline(worth, out, rest, elapsed)
     for cell in settings.cells:
         result = results[cell.name]
         verdicts = ", ".join(

@@ -43,6 +43,8 @@ __all__ = [
     "Cell",
     "Settings",
     "manifest",
+    "source_digest",
+    "versions",
 ]
 
 NOISE_LEVELS = (10.0, 20.0, 30.0)
@@ -231,10 +233,10 @@ class Settings:
 
 
 FULL = Settings()
-QUICK = Settings(seeds=2, n_positions=1000, fine_step=60.0, quick=True, spacing_mm=9.0)
+QUICK = Settings(seeds=2, n_positions=500, fine_step=60.0, quick=True, spacing_mm=12.0)
 
 
-def _source_digest():
+def source_digest():
     """SHA-256 of the skf_ref sources: results computed by other code are stale."""
     import skf_ref
 
@@ -246,7 +248,7 @@ def _source_digest():
     return digest.hexdigest()
 
 
-def _versions():
+def versions():
     packages = ("skf_ref", "numpy", "scipy", "pandas", "mne", "matplotlib", "joblib", "filterpy")
     return {"python": platform.python_version(), **package_versions(packages)}
 
@@ -288,9 +290,9 @@ def manifest(settings, testing_data=None):
         n_positions=settings.n_positions,
         spacing_mm=settings.spacing_mm,
         montage=MONTAGE,
-        versions=_versions(),
+        versions=versions(),
         # sorted: blas_threads' order varies from process to process (threadpoolctl's
         # order follows the string hash seed), which would make every rerun look stale
         blas=sorted(blas_threads(), key=lambda b: json.dumps(b, sort_keys=True)),
-        skf_ref_sources_sha256=_source_digest(),
+        skf_ref_sources_sha256=source_digest(),
     )

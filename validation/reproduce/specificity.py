@@ -20,11 +20,10 @@ import pandas as pd
 from skf_ref._utils.atomic_files import atomic_path
 from skf_ref.study.regions import DYNAMIC_RANGE_DB
 
-from .recommend import auc, recommend
+from .recommend import recommend
 from .stats import quartiles
 
 __all__ = [
-    "BOOTSTRAP",
     "RECOMMENDATION",
     "auc_interval",
     "check_against_sweeps",
@@ -34,22 +33,17 @@ __all__ = [
     "write_recommendation",
 ]
 
-#: Bootstrap resamples of the AUC interval (present and absent resampled separately).
-BOOTSTRAP = 2000
 #: Where the recommendation is recorded, relative to the report folder.
 RECOMMENDATION = "recommendation.json"
 _SOURCES = {"deep": "superficial", "superficial": "deep"}  # source -> the data without it
 
 
-def auc_interval(present, absent, rng, n=BOOTSTRAP):
-    """AUC and its 95 % percentile bootstrap interval.
+def auc_interval(present, absent):
+    """AUC and Newcombe's (2006) method 5 95 % interval (honest at 0 and 1).
 
     Parameters
     ----------
     present, absent : ndarray, shape (n_present,) and (n_absent,)
-    rng : numpy.random.Generator
-    n : int
-        Resamples.
 
     Returns
     -------
@@ -57,15 +51,21 @@ def auc_interval(present, absent, rng, n=BOOTSTRAP):
 
     Examples
     --------
-    >>> auc_interval(np.array([2.0, 3.0]), np.array([0.0, 1.0]), np.random.default_rng(0))
-    (1.0, 1.0, 1.0)
+    >>> area, low, high = auc_interval(np.array([2.0, 3.0]), np.array([0.0, 1.0]))
+    >>> area, round(low, 2), high
+    (1.0, 0.39, 1.0)
     """
-    present, absent = np.asarray(present, float), np.asarray(absent, float)
-    p = present[rng.integers(0, present.size, (n, present.size))][:, :, None]
-    a = absent[rng.integers(0, absent.size, (n, absent.size))][:, None, :]
-    areas = ((p > a) + 0.5 * (p == a)).mean(axis=(1, 2))
-    low, high = np.percentile(areas, [2.5, 97.5])
-    return auc(present, absent), float(low), float(high)
+    from .worth.intervals import newcombe_auc
+
+    return newcombe_auc(np.asarray(present, float), np.asarray(absent, float))
+
+
+def _rate(flags):
+    """Rate and its Clopper-Pearson interval."""
+    from .worth.intervals import clopper_pearson
+
+    flags = np.asarray(flags, dtype=bool)
+    return (float(flags.mean()), *clopper_pearson(int(flags.sum()), flags.size))
 
 
 def scores(table):
@@ -88,12 +88,20 @@ def scores(table):
         for source, without in _SOURCES.items():
             column = f"{source}_region_db"
             present, absent = by["both"][column].to_numpy(), by[without][column].to_numpy()
-            rng = np.random.default_rng(0)
             row[f"{source}_auc"], row[f"{source}_low"], row[f"{source}_high"] = auc_interval(
-                present, absent, rng
+                present, absent
             )
-            row[f"{source}_tpr"] = float(np.mean(present >= -DYNAMIC_RANGE_DB))
-            row[f"{source}_fpr"] = float(np.mean(absent >= -DYNAMIC_RANGE_DB))
+            for name, flags in (("tpr", present), ("fpr", absent)):
+                rate = _rate(flags >= -DYNAMIC_RANGE_DB)
+                row[f"{source}_{name}"], row[f"{source}_{name}_low"] = rate[:2]
+                row[f"{source}_{name}_high"] = rate[2]
+            if source == "deep" and "deep_level" in by["both"]:
+                for score in ("level", "epoch_db"):
+                    present = by["both"][f"deep_{score}"].to_numpy()
+                    absent = by[without][f"deep_{score}"].to_numpy()
+                    area, low, high = auc_interval(present, absent)
+                    row[f"deep_{score}_auc"], row[f"deep_{score}_low"] = area, low
+                    row[f"deep_{score}_high"] = high
             errors = by["both"][f"{source}_error_mm"]
             row[f"{source}_err"], row[f"{source}_q1"], row[f"{source}_q3"] = quartiles(errors)[:3]
             row[f"{source}_no_estimate"] = int(errors.isna().sum())
@@ -171,6 +179,7 @@ def check_against_sweeps(raw, results):
     results : dict
         Cell name -> :class:`cells.CellResult` (with its ``controls``).
     """
+    from .baselines import EXTRA_SKF
     from .settings import TUNED_PRIOR
 
     for name, result in results.items():
@@ -181,6 +190,7 @@ def check_against_sweeps(raw, results):
             (control["ep_snr_db"] == TUNED_PRIOR[0]) & (control["pm_snr_db"] == TUNED_PRIOR[1])
         ]
         ours = raw[(raw["condition"] == name) & (raw["method"] == "SKF")]
+        ours = ours[~ours["setting"].isin(EXTRA_SKF)]  # not in the sweeps' grid
         ours = ours[(ours["data"] == "superficial") & ours["seed"].isin(control["seed"])]
         setting = control["exponent"].map("{:g}".format) + "/" + control["smoother"]
         keyed = control.assign(setting=setting).set_index(["snr_db", "seed", "setting"])

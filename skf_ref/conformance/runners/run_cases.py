@@ -9,10 +9,15 @@ CASE_DIR is a folder ``skf-ref conformance export`` wrote. For each case listed 
 
     FUNCTION(L, Y, R, A, Q, P0, exponent, smoother)
 
-and saves what it returns to ``OUT_DIR/<case>.npz``. FUNCTION returns a mapping with any of
+(a case that standardizes each position as a whole, suite version 3, also passes
+``standardize="position", n_orient=3``; a FUNCTION without those parameters skips it) and
+saves what it returns to ``OUT_DIR/<case>.npz``. FUNCTION returns a mapping with any of
 ``z``, ``z_filtered``, ``x``, ``x_filtered``, ``weights`` (arrays of shape
-(n_sources, n_times)) and ``log_likelihood``; ``smoother`` is ``"none"``,
-``"rts-standardized"`` or ``"rts-state"``. Without ``--skf`` it runs ``skf_ref``'s own
+(n_sources, n_times)) and ``log_likelihood``, and any of the intermediate quantities it
+computes (:data:`INTERMEDIATES`, their shapes in the suite's docs/conformance.md: ``P_pred``
+is (n_sources, n_sources, n_times), time last), which ``compare`` uses to name the first
+quantity that goes wrong; ``smoother`` is ``"none"``, ``"rts-standardized"``,
+``"rts-state"`` or ``"rts-smoothed-weights"``. Without ``--skf`` it runs ``skf_ref``'s own
 SKF: replace :func:`my_skf` with yours, or name yours with ``--skf`` (MODULE is imported
 from the current folder or the Python path).
 
@@ -26,6 +31,7 @@ Needs numpy only: copy it into your project and adapt it.
 
 import argparse
 import importlib
+import inspect
 import json
 import re
 import sys
@@ -34,20 +40,27 @@ from pathlib import Path
 import numpy as np
 
 OUTPUTS = ("z", "z_filtered", "x", "x_filtered", "weights", "log_likelihood")
+#: What FUNCTION may return besides the outputs: saved too, for compare's first divergence.
+INTERMEDIATES = (
+    *("theta0", "q", "x_pred", "P_pred", "S", "K", "P_filt", "w"),
+    *("G", "P_smooth", "Sigma", "w_smooth"),
+)
 
 
-def my_skf(L, Y, R, A, Q, P0, exponent, smoother):
+def my_skf(L, Y, R, A, Q, P0, exponent, smoother, standardize="column", n_orient=None):
     """Replace with your SKF. This one is skf_ref's, so that the runner runs as it is."""
     import skf_ref
 
     rec = skf_ref.reconstruct(
-        L, Y, noise_cov=R, theta0=P0, q=Q, transition=A, exponent=exponent, smoother=smoother
-    )
+        L, Y, noise_cov=R, theta0=P0, q=Q, transition=A, exponent=exponent, smoother=smoother,
+        standardize=standardize, n_orient=n_orient,
+    )  # fmt: skip
     return {name: getattr(rec, name) for name in OUTPUTS}
 
 
 def read_case(path):
-    """The inputs of a case file, as matrices: L, Y, R, A, Q, P0, exponent, smoother."""
+    """The inputs of a case file, as matrices: L, Y, R, A, Q, P0, exponent, smoother (and
+    standardize, n_orient when the case standardizes each position as a whole)."""
     with np.load(path, allow_pickle=False) as case:
         m, n = case["L"].shape
 
@@ -55,7 +68,7 @@ def read_case(path):
             value = case[name]
             return value * np.eye(size) if value.ndim == 0 else value
 
-        return dict(
+        found = dict(
             L=case["L"],
             Y=case["Y"],
             R=matrix("noise_cov", m),
@@ -65,6 +78,15 @@ def read_case(path):
             exponent=float(case["exponent"]),
             smoother=str(case["smoother"]),
         )
+        if "standardize" in case.files and str(case["standardize"]) != "column":
+            found |= dict(standardize=str(case["standardize"]), n_orient=int(case["n_orient"]))
+        return found
+
+
+def takes(skf, name):
+    """Whether ``skf`` has a parameter ``name`` (or takes any keyword)."""
+    parameters = inspect.signature(skf).parameters.values()
+    return any(p.name == name or p.kind is p.VAR_KEYWORD for p in parameters)
 
 
 def case_name(entry):
@@ -91,8 +113,17 @@ def run(case_dir, out_dir, skf):
     done = []
     for case in names:
         case_file, out_file = case_dir / f"{case}.npz", out_dir / f"{case}.npz"
-        outputs = skf(**read_case(case_file))
-        np.savez(out_file, **{name: outputs[name] for name in OUTPUTS if name in outputs})
+        inputs = read_case(case_file)
+        if "standardize" in inputs and not takes(skf, "standardize"):
+            print(
+                f"{case:<24} skipped: it standardizes each position as a whole "
+                f"(standardize={inputs['standardize']!r}, n_orient={inputs['n_orient']}), "
+                "and the function has no such parameters"
+            )
+            continue
+        outputs = skf(**inputs)
+        kept = [name for name in OUTPUTS + INTERMEDIATES if name in outputs]
+        np.savez(out_file, **{name: outputs[name] for name in kept})
         done.append((case_file, out_file))
     return done
 

@@ -192,6 +192,7 @@ def plot_comparison(
     view: str = "coronal",
     title: str | None = None,
     path: str | os.PathLike | None = None,
+    thresholds: Mapping[str, float] | None = None,
 ) -> Figure:
     """Methods side by side, each with a source present and absent: one MIP a panel.
 
@@ -199,8 +200,10 @@ def plot_comparison(
     out) and one column per method, each the maximum-intensity projection of the amplitude
     at ``time_ms``, in dB re. its maximum then (the paper's 6 dB range). Each panel is
     annotated with the deep region's level (its maximum re. the global maximum, dB) and
-    whether that counts as a detection (within 6 dB): a detection in a row without the deep
-    source is a false one. True sources are circles, drawn faint where absent.
+    whether that counts as a detection (within 6 dB), or, with ``thresholds``, with the
+    thalamus' level against a calibrated threshold (:mod:`skf_ref.study.detection`): a
+    detection in a row without the deep source is a false one. True sources are circles,
+    drawn faint where absent.
 
     Parameters
     ----------
@@ -223,6 +226,11 @@ def plot_comparison(
         The figure's title; None: none.
     path : str or path-like, optional
         Where to save the figure (its format from the suffix); None: not saved.
+    thresholds : dict, optional
+        ``{method: threshold}`` on the thalamus' level (a cortex + thalamus head): a panel
+        detects when the largest amplitude over the thalamus at ``time_ms`` exceeds its
+        method's threshold (:func:`skf_ref.study.detection.calibrate`). None: the deep
+        region within 6 dB of the maximum, the paper's reading.
 
     Returns
     -------
@@ -239,6 +247,14 @@ def plot_comparison(
     absent = {} if absent is None else check_instance("absent", absent, dict, "a dict")
     projection = next(v for v in VIEWS if v[0] == view)
     methods = list(dict.fromkeys(method for method, _ in estimates))
+    if thresholds is not None:
+        from ..sources import position_structures
+
+        check_instance("thresholds", thresholds, dict, "a dict {method: threshold}")
+        missing = [method for method in methods if method not in thresholds]
+        if missing:
+            raise InputError(f"thresholds has no threshold for {missing}")
+        thalamus = position_structures(head) == "thalamus"
     rows = list(dict.fromkeys(data for _, data in estimates))
     times = np.asarray(truth.times, dtype=float)
     k = int(np.abs(times * 1e3 - check_real("time_ms", time_ms)).argmin())
@@ -258,9 +274,14 @@ def plot_comparison(
             )
             level = region_db(amplitude, head.positions, truth.positions[0], k)
             detected = level >= -DYNAMIC_RANGE_DB
+            text = f"deep region {level:.1f} dB"
+            if thresholds is not None:
+                thalamic = float(amplitude[thalamus, k].max())
+                detected = thalamic > thresholds[method]
+                text = f"thalamus {thalamic:.3g}, threshold {thresholds[method]:.3g}"
             verdict = "detected" if detected else "not detected"
             ax.text(
-                0.02, 0.02, f"deep region {level:.1f} dB: {verdict}", transform=ax.transAxes,
+                0.02, 0.02, f"{text}: {verdict}", transform=ax.transAxes,
                 fontsize="small", va="bottom",
                 color="tab:red" if detected and "deep" in left_out else "black",
                 bbox=dict(facecolor="white", alpha=0.8, lw=0),
