@@ -4,12 +4,22 @@ import numpy as np
 import pytest
 from hypothesis import settings
 
-# The default run (and CI) draws the same examples every time: a red run can be rerun.
-settings.register_profile("default", max_examples=150, deadline=None, derandomize=True)
+# The default run (and CI) draws the same examples every time: a red run can be rerun. 50
+# models a property in the default run (its time budget); CI draws 150 of each again
+# (``--hypothesis-profile=thorough -m property``).
+settings.register_profile("default", max_examples=50, deadline=None, derandomize=True)
+settings.register_profile("thorough", max_examples=150, deadline=None, derandomize=True)
 # ``--hypothesis-profile=explore``: thousands of fresh models, and hypothesis's example
 # database keeps any failure it finds for the next run.
 settings.register_profile("explore", max_examples=5000, deadline=None)
 settings.load_profile("default")
+
+
+def pytest_collection_modifyitems(items):
+    """Every hypothesis test is marked ``property`` (CI runs them again, thoroughly)."""
+    for item in items:
+        if getattr(getattr(item, "obj", None), "is_hypothesis_test", False):
+            item.add_marker(pytest.mark.property)
 
 
 # --- MNE objects made here (no dataset needed) ----------------------------------------------
