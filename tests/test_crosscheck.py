@@ -89,6 +89,7 @@ def test_relative_difference():
     assert np.isnan(cc.relative_difference([np.nan], [1.0]))
 
 
+@pytest.mark.slow
 def test_main_passes_and_prints_table(capsys):
     assert cc.main(["--paths", "filterpy"]) == 0
     out = capsys.readouterr().out

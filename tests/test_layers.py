@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 PACKAGE = Path(__file__).resolve().parents[1] / "skf_ref"
 #: The layers, lowest first: a module may import its own layer and those before it.
 LAYERS = ("_utils", "method", "io", "conformance", "datasets", "study", "cli")
@@ -98,6 +100,7 @@ def test_private_names_stay_in_their_module():
                 assert not private, f"{path}: imports private {private}"
 
 
+@pytest.mark.slow
 def test_a_reconstruction_loads_neither_plots_nor_mne_nor_the_study():
     code = (
         "import sys, numpy as np, skf_ref\n"

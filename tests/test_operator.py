@@ -300,6 +300,7 @@ def test_meg_and_eeg_are_whitened_by_type_and_only_eeg_is_referenced(meg_eeg):
     assert relative(rec.z, expected.z) < 1e-8  # two whitenings of a covariance of cond ~1e3
 
 
+@pytest.mark.slow
 def test_channel_types_are_picked_by_argument(meg_eeg):
     evoked, forward, cov = meg_eeg
     grad = make_skf_operator(evoked.info, forward, cov, meg="grad", verbose=False)

@@ -380,6 +380,7 @@ def test_output_folder():
         rp.output_folder(Settings(n_positions=500), DEFAULT_OUT)
 
 
+@pytest.mark.slow
 def test_runs_as_a_module():
     """``python -m validation.reproduce`` reaches :func:`main` (bad arguments: exit 2)."""
     result = subprocess.run(
