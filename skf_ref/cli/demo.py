@@ -69,6 +69,13 @@ def add_parser(subparsers: argparse._SubParsersAction[Parser]) -> None:
         smoother_help="smoother of the first SKF (the second is the paper's setting)",
     )
     demo.add_argument(
+        "--standardize",
+        choices=("position", "column"),
+        default="position",
+        help="standardization of the first SKF: each source position's orientations as a "
+        "whole (the default) or each column on its own (the paper's)",
+    )
+    demo.add_argument(
         "--source-space",
         choices=("anatomical", "volume"),
         default="anatomical",
@@ -140,6 +147,7 @@ def run(args: argparse.Namespace) -> Demo:
             ep_snr_db=args.ep_snr_db,
             exponent=args.exponent,
             smoother=None if args.smoother == "none" else args.smoother,
+            standardize=args.standardize,
             verbose=not args.quiet,
         )
     except (InputError, MemoryError) as err:

@@ -4,8 +4,9 @@ One simulated data set of the paper's scenario (a deep thalamic and a superficia
 dipole, 2 ms apart) and its control, the same noise with the deep source left out, each
 reconstructed three ways:
 
-- the SKF at the chosen setting (default: the recommended one, exponent 0.5 without
-  smoothing, :data:`skf_ref.RECOMMENDED_SETTING`);
+- the SKF at the chosen setting (default: the one the study's rule chose, exponent 0.5
+  without smoothing, :data:`skf_ref.RECOMMENDED_SETTING`, each source position
+  standardized as a whole, priors PM-SNR 0 dB and EP-SNR 0 dB);
 - the SKF at the paper's setting (exponent 1.25, ``"rts-standardized"``,
   :data:`skf_ref.PAPER_SETTING`);
 - MNE's sLORETA (``mne.minimum_norm``, lambda2 = 1/9, the same noise covariance).
@@ -36,7 +37,7 @@ from .._utils.atomic_files import atomic_path
 from .._utils.checks import InputError, check_choice, check_int
 from .._utils.log import logger, progress, verbosity
 from ..method import PAPER_SETTING
-from ..method._settings import check_smoother
+from ..method._settings import STANDARDIZATIONS, check_smoother
 from .sizes import DEFAULT_POSITIONS
 
 if TYPE_CHECKING:
@@ -123,9 +124,10 @@ def run_demo(
     testing_data: str | os.PathLike | None = None,
     cache_dir: str | os.PathLike | None = None,
     pm_snr_db: float | str = 0.0,
-    ep_snr_db: float | str = 20.0,
+    ep_snr_db: float | str = 0.0,
     exponent: float = 0.5,
     smoother: str | None = None,
+    standardize: str = "position",
     verbose: bool | str | int | None = None,
 ) -> Demo:
     """Simulate the P20/N20 scenario and its control; reconstruct them three ways.
@@ -156,6 +158,10 @@ def run_demo(
         Standardization exponent of the first SKF (the paper's setting is the second).
     smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
         Its smoother.
+    standardize : {"position", "column"}
+        Its standardization: each source position's three orientations as a whole (the
+        default, the study's rule's) or each column on its own (the paper's, which the
+        paper's setting keeps).
     verbose : bool or str or int or None
         Progress on the ``"skf_ref"`` logger, as MNE's ``verbose``.
 
@@ -173,6 +179,7 @@ def run_demo(
 
     check_choice("head", head, HEADS)
     smoother = check_smoother(smoother)
+    check_choice("standardize", standardize, STANDARDIZATIONS)
     seed = check_int("seed", seed, minimum=0)
     folder = _output_folder(out)
     with verbosity(verbose):
@@ -204,7 +211,8 @@ def run_demo(
             data: simulate(model, scenario, snr_db, seed, sources=sources)
             for data, sources in DATA.items()
         }
-        setting = {"exponent": exponent, "smoother": smoother}
+        setting = {"exponent": exponent, "smoother": smoother, "standardize": standardize}
+        setting["n_orient"] = 3 if standardize == "position" else None  # free orientation
         with progress("SKF and sLORETA"):
             priors, tuning = _priors(model, sims["present"], pm_snr_db, ep_snr_db)
             reconstructions = _skf(model, sims, priors, {"skf": setting, "paper": PAPER_SETTING})
@@ -260,7 +268,8 @@ def _output_folder(out: str | os.PathLike | None) -> Path | None:
 
 def _label(setting: Mapping[str, Any]) -> str:
     smoother = setting["smoother"] or "no smoother"
-    return f"SKF, exponent {setting['exponent']:g}, {smoother}"
+    standardize = f", {setting['standardize']}" if "standardize" in setting else ""
+    return f"SKF, exponent {setting['exponent']:g}, {smoother}{standardize}"
 
 
 def _priors(
@@ -381,6 +390,7 @@ def _settings(
         "tuned_ep_snr_db": None if tuning is None else tuning.ep_snr_db,
         "exponent": setting["exponent"],
         "smoother": setting["smoother"],
+        "standardize": setting["standardize"],
         "paper_setting": dict(PAPER_SETTING),
         "sloreta_lambda2": _SLORETA_LAMBDA2,
         "data": {label: list(sources) for label, sources in DATA.items()},
