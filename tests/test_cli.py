@@ -64,7 +64,10 @@ def test_demo_writes_figures_arrays_and_metrics(demo_dir, capsys):
 def test_demo_prints_the_metrics_table(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path), *SMALL, "--snr-db", "20"]) == 0
     printed = capsys.readouterr().out
-    assert "SNR 20 dB, EP-SNR 20 dB, PM-SNR 0 dB" in printed
+    assert (
+        "SNR 20 dB, EP-SNR 0 dB, PM-SNR 0 dB (the paper's setting at its own, EP-SNR 20 dB"
+        in printed
+    )
     assert "480 positions" in printed and "superficial_error_mm" in printed
     for label in ("exponent 0.5, no smoother", "(paper)", "sLORETA", "deep absent"):
         assert label in printed, label
@@ -74,7 +77,7 @@ def test_demo_prints_the_metrics_table(tmp_path, capsys):
 def test_demo_runs_the_chosen_setting_beside_the_papers(tmp_path, capsys):
     arguments = ["--exponent", "1", "--smoother", "rts-state"]
     assert main(["demo", "--out", str(tmp_path), *SMALL, *arguments]) == 0
-    assert "SKF, exponent 1, rts-state, present" in capsys.readouterr().out
+    assert "SKF, exponent 1, rts-state, position, present" in capsys.readouterr().out
     settings = json.loads((tmp_path / "settings.json").read_text())
     assert (settings["exponent"], settings["smoother"]) == (1.0, "rts-state")
 

@@ -94,9 +94,9 @@ def test_priors_searched_over_a_range_from_the_command_line(cli, files, tmp_path
     assert result.returncode == 0, result.stderr
     assert "priors chosen by the data: PM-SNR" in result.stderr
     settings = json.loads((tmp_path / "r.stc.json").read_text())
-    assert settings["priors_searched"] == {"pm_snr_db": [-40.0, 20.0], "ep_snr_db": 20.0}
+    assert settings["priors_searched"] == {"pm_snr_db": [-40.0, 20.0], "ep_snr_db": 0.0}
     assert -40 <= settings["pm_snr_db"] <= 20
-    assert settings["ep_snr_db"] == 20.0
+    assert settings["ep_snr_db"] == 0.0
 
 
 @pytest.mark.parametrize(

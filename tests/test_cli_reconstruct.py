@@ -52,6 +52,8 @@ def test_mne_route_writes_the_estimate_its_settings_and_a_figure(files, tmp_path
     settings = json.loads((tmp_path / "est.stc.json").read_text())
     assert settings["route"] == "mne" and settings["exponent"] == 0.5
     assert settings["smoother"] == "none" and "versions" in settings["machine"]
+    # the rule's setting where the forward gives the orientations
+    assert settings["standardize"] == "position" and settings["ep_snr_db"] == 0.0
     assert (tmp_path / "e.png").read_bytes()[:4] == b"\x89PNG"
 
 
@@ -66,6 +68,8 @@ def test_array_route_writes_arrays(files, tmp_path):
     assert main([*arguments, "--out", str(out), "--quiet"]) == 0
     saved = np.load(out)
     assert saved["z"].shape == (3762, 60) and str(saved["smoother"]) == "rts-state"
+    # an array does not say which columns form a position: each column on its own
+    assert str(saved["standardize"]) == "column"
 
 
 def _cli(*arguments):

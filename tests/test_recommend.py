@@ -80,3 +80,30 @@ def test_every_entry_point_defaults_to_the_recommended_setting():
         exponent, smoother = (commands[command].get_default(k) for k in ("exponent", "smoother"))
         smoother = None if smoother == "none" else smoother
         assert (exponent, smoother) == tuple(skf_ref.RECOMMENDED_SETTING.values()), command
+
+
+def test_the_routes_that_know_the_orientations_default_to_the_rules_standardization():
+    # The rule's setting (validation/report/REPORT.md): position standardization, EP-SNR and
+    # PM-SNR 0 dB. An array does not say which columns form a position: reconstruct keeps
+    # "column" there; every MNE route takes n_orient from the forward and the rule's form.
+    import inspect
+
+    import skf_ref
+    from skf_ref.cli import build_parser
+    from skf_ref.study.demo import run_demo
+
+    def default(function, name):
+        return inspect.signature(function).parameters[name].default
+
+    assert default(skf_ref.reconstruct, "standardize") == "column"
+    routes = (skf_ref.apply_skf, skf_ref.apply_skf_epochs, skf_ref.apply_skf_raw, run_demo)
+    for function in (*routes, skf_ref.SKFOperator.reconstruct):
+        assert default(function, "standardize") == "position", function.__qualname__
+    assert default(skf_ref.make_skf_operator, "ep_snr_db") == 0.0
+    assert default(skf_ref.make_skf_operator, "pm_snr_db") == 0.0
+    assert default(run_demo, "ep_snr_db") == 0.0 and default(run_demo, "pm_snr_db") == 0.0
+    commands = build_parser()._subparsers._group_actions[0].choices
+    for command in ("demo", "reconstruct"):
+        priors = [commands[command].get_default(k) for k in ("pm_snr_db", "ep_snr_db")]
+        assert priors == [0.0, 0.0], command
+    assert commands["demo"].get_default("standardize") == "position"

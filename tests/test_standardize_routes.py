@@ -66,7 +66,7 @@ def test_a_dipole_of_any_orientation_is_localized(mne_setup):
             standardize, _, smoother = name.partition(", ")
             stc = apply_skf(
                 evoked, mne_setup["forward"], cov, standardize=standardize,
-                smoother=smoother or None,
+                smoother=smoother or None, ep_snr_db=20.0,
             )  # fmt: skip
             best = np.argmax(stc.data[:, mne_setup["peak"]])
             distance = np.linalg.norm(

@@ -165,7 +165,7 @@ def add_skf_options(parser: Any, *, exponent: Any, smoother: Any, smoother_help:
     parser.add_argument(
         "--ep-snr-db",
         type=db(auto=True),
-        default=20.0,
+        default=0.0,
         metavar="DB",
         help=f"EP-SNR prior (dB{chosen})",
     )

@@ -69,6 +69,13 @@ def add_parser(subparsers: argparse._SubParsersAction[Parser]) -> None:
         smoother_help="smoother of the first SKF (the second is the paper's setting)",
     )
     demo.add_argument(
+        "--standardize",
+        choices=("position", "column"),
+        default="position",
+        help="standardization of the first SKF: each source position's orientations as a "
+        "whole (the default) or each column on its own (the paper's)",
+    )
+    demo.add_argument(
         "--source-space",
         choices=("anatomical", "volume"),
         default="anatomical",
@@ -140,15 +147,18 @@ def run(args: argparse.Namespace) -> Demo:
             ep_snr_db=args.ep_snr_db,
             exponent=args.exponent,
             smoother=None if args.smoother == "none" else args.smoother,
+            standardize=args.standardize,
             verbose=not args.quiet,
         )
     except (InputError, MemoryError) as err:
         raise type(err)(_as_flag(str(err))) from None
     print(f"head: {_head_line(demo, args)}")
+    tuned = demo.settings["priors_chosen_by_the_data"]
+    paper = "" if tuned else " (the paper's setting at its own, EP-SNR 20 dB, PM-SNR 0 dB)"
     print(
-        f"SNR {args.snr_db:g} dB, EP-SNR {_db(args.ep_snr_db)}, PM-SNR {_db(args.pm_snr_db)}, "
-        f"{demo.head.n_positions} positions ({demo.head.montage}); the deep source present "
-        "and absent (the same noise):"
+        f"SNR {args.snr_db:g} dB, EP-SNR {_db(args.ep_snr_db)}, PM-SNR {_db(args.pm_snr_db)}"
+        f"{paper}, {demo.head.n_positions} positions ({demo.head.montage}); the deep source "
+        "present and absent (the same noise):"
     )
     calibrated = "detection_threshold" in demo.metrics.index
     table = demo.metrics.loc[list(_PRINTED if calibrated else _PRINTED_6DB)].T

@@ -90,10 +90,12 @@ def add_parser(subparsers: Any) -> None:
     )
     model.add_argument(
         "--standardize",
-        default="column",
         choices=("column", "position"),
-        help="standardize each column of the lead field on its own (the paper's), or each "
-        "source position's orientations as a whole, as sLORETA (docs/model.md section 2)",
+        help="standardize each source position's orientations as a whole, as sLORETA "
+        "(docs/model.md section 2; default on the MNE route, which takes the orientations "
+        "from the forward), or each column of the lead field on its own (the paper's; "
+        "default on the array route, where an array does not say which columns form a "
+        "position)",
     )
     model.add_argument(
         "--n-orient",
@@ -161,6 +163,8 @@ def _route(args):
         if getattr(args, flag) is not None and not mne_route:
             raise InputError(f"argument --{flag}: channel types are picked on the MNE route only")
     _check_outputs(args)
+    if args.standardize is None:  # an array does not say which columns form a position
+        args.standardize = "position" if mne_route else "column"
     return "mne" if mne_route else "arrays"
 
 

@@ -54,7 +54,7 @@ def _operator(evoked, forward, noise_cov, noise_std, snrs, types, verbose):
             noise_cov = baseline_covariance(evoked, **types)
     snrs = {
         name: default if snrs[name] is None else snrs[name]
-        for name, default in (("pm_snr_db", 0.0), ("ep_snr_db", 20.0))
+        for name, default in (("pm_snr_db", 0.0), ("ep_snr_db", 0.0))
     }
     return make_skf_operator(
         evoked.info, forward, noise_cov, noise_std=noise_std, **snrs, **types, verbose=verbose
@@ -73,7 +73,7 @@ def apply_skf(
     smoother: str | None = None,
     pick_ori: str | None = None,
     method: str = "auto",
-    standardize: str = "column",
+    standardize: str = "position",
     meg: bool | str | None = None,
     eeg: bool | None = None,
     return_reconstruction: bool = False,
@@ -93,21 +93,23 @@ def apply_skf(
     per-position norm (``pick_ori=None``) or the three components (``"vector"``); fixed
     orientation gives the signed estimate.
 
-    Which setting. The defaults are the setting the package recommends
-    (:data:`skf_ref.RECOMMENDED_SETTING`): the original SKF, exponent 0.5 without smoothing.
-    In the study it tells a deep source present from absent about as well as MNE's sLORETA,
-    where the paper's setting (``**skf_ref.PAPER_SETTING``) does not
-    (validation/report/REPORT.md, "Which setting, and against what"). On an MNE sphere
+    Which setting. The defaults are the setting the study's pre-registered rule chose
+    (validation/report/REPORT.md): exponent 0.5 without smoothing
+    (:data:`skf_ref.RECOMMENDED_SETTING`), each source position standardized as a whole
+    (``standardize="position"``, ``n_orient`` from the forward: for a fixed-orientation
+    forward it equals the per-column form), and priors PM-SNR 0 dB, EP-SNR 0 dB. The
+    paper's form is ``standardize="column"``, and the defaults before 0.4.0 were
+    ``standardize="column"`` with EP-SNR 20 dB (``ep_snr_db=20``). On an MNE sphere
     forward (12 mm volume grid of 1254 positions, biosemi64; one dipole at a time at 9
-    positions from the bottom of the grid to its top, 30 averaged epochs, peak SNR 20 dB;
-    ``tests/test_apply.py`` measures this) the peak at the pulse's maximum was, median
-    (range) over the dipoles: 17 mm (0-69) off with exponent 0.5 and no smoothing, 17 mm
-    (0-51) with ``"rts-state"``, 24 mm (17-74) with ``"rts-standardized"``, and 50 mm
-    (29-123) with exponent 1.25 and no smoothing (the maximum goes to weakly seen positions,
-    the bottom of the grid). The largest errors belong to the deepest dipoles: free
-    orientation standardizes each of a position's three columns on its own (docs/model.md
-    §1), which is not rotation invariant and misplaces deep sources by a grid step or more
-    even without noise. ``standardize="position"`` standardizes each position as a whole
+    positions from the bottom of the grid to its top, 30 averaged epochs, peak SNR 20 dB,
+    EP-SNR 20 dB; ``tests/test_apply.py`` measures this) the peak at the pulse's maximum
+    was, median (range) over the dipoles, with ``standardize="column"``: 17 mm (0-69) off
+    with exponent 0.5 and no smoothing, 17 mm (0-51) with ``"rts-state"``, 24 mm (17-74)
+    with ``"rts-standardized"``, and 50 mm (29-123) with exponent 1.25 and no smoothing
+    (the maximum goes to weakly seen positions, the bottom of the grid). The largest errors
+    belong to the deepest dipoles: free orientation standardized column by column
+    (docs/model.md §1) is not rotation invariant and misplaces deep sources by a grid step
+    or more even without noise. ``standardize="position"`` standardizes each position as a whole
     and finds a noise-free dipole of any orientation at its position (docs/model.md §2): on
     the same dipoles 17 mm (0-29) without smoothing, 12 mm (0-29) with ``"rts-state"``, and
     0 mm (0-12, every dipole within one grid step) with ``"rts-smoothed-weights"``, the
@@ -134,7 +136,7 @@ def apply_skf(
         the two.
     pm_snr_db, ep_snr_db : float or "auto" or (float, float), optional
         Without an operator: the priors' SNRs in dB (docs/model.md §4, "gain" convention,
-        whitened lead field), default 0 and 20 dB. ``"auto"`` or a range ``(low, high)``:
+        whitened lead field), default 0 and 0 dB. ``"auto"`` or a range ``(low, high)``:
         chosen by the marginal likelihood of the data (``"auto"``: -20 to 40 dB); the
         reconstruction's ``tuning`` says what was chosen.
     exponent : float
@@ -147,9 +149,9 @@ def apply_skf(
         three components of a free-orientation forward.
     method : {"auto", "filterpy", "dense", "spectral"}
     standardize : {"column", "position"}
-        ``"column"`` (the paper's): each column of the forward on its own; ``"position"``:
-        each source position's orientations as a whole, as sLORETA (docs/model.md §2). The
-        columns per position come from the forward (3 free, 1 fixed).
+        ``"position"`` (the default): each source position's orientations as a whole, as
+        sLORETA (docs/model.md §2), the columns per position from the forward (3 free, 1
+        fixed); ``"column"`` (the paper's): each column of the forward on its own.
     meg : None or bool or "mag" or "grad"
     eeg : None or bool
         Without an operator: the channel types (:func:`skf_ref.make_skf_operator`);
@@ -203,7 +205,7 @@ def apply_skf_epochs(
     smoother: str | None = None,
     pick_ori: str | None = None,
     method: str = "auto",
-    standardize: str = "column",
+    standardize: str = "position",
     nave: float = 1,
     return_generator: bool = False,
     verbose: bool | str | int | None = None,

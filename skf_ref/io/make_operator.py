@@ -53,7 +53,7 @@ def make_skf_operator(
     *,
     noise_std: float | dict[str, float] | None = None,
     pm_snr_db: Any = 0.0,
-    ep_snr_db: Any = 20.0,
+    ep_snr_db: Any = 0.0,
     meg: bool | str | None = None,
     eeg: bool | None = None,
     rank: Any = None,
@@ -85,7 +85,8 @@ def make_skf_operator(
         in use, ``{"eeg": V, "grad": T/m, "mag": T}`` (``mne.make_ad_hoc_cov``). Give
         exactly one of the two.
     pm_snr_db, ep_snr_db : float or "auto" or (float, float)
-        The priors' SNRs in dB (docs/model.md §4, on the whitened lead field). ``"auto"``
+        The priors' SNRs in dB (docs/model.md §4, on the whitened lead field), default 0
+        and 0 dB (the study's rule, validation/report/REPORT.md). ``"auto"``
         or a range ``(low, high)`` in dB: chosen from each data set the operator is
         applied to by the marginal likelihood (:func:`skf_ref.tune`; ``"auto"`` searches
         -20 to 40 dB).
@@ -121,7 +122,7 @@ def make_skf_operator(
     >>> operator.dropped
     {'bad': ['Oz']}
     >>> operator  # doctest: +ELLIPSIS
-    <SKFOperator | 31 channels, rank 30, ... positions x 3, PM-SNR and EP-SNR 0 dB, 20 dB>
+    <SKFOperator | 31 channels, rank 30, ... positions x 3, PM-SNR and EP-SNR 0 dB, 0 dB>
     """
     mne = optional("mne", "mne", "make_skf_operator")
     from mne.cov import compute_whitener

@@ -342,7 +342,7 @@ class SKFOperator:
         smoother: str | None = None,
         method: str = "auto",
         memory_limit: float | None = None,
-        standardize: str = "column",
+        standardize: str = "position",
     ) -> Reconstruction:
         """The SKF on data of the operator's channels (in ``ch_names`` order).
 
@@ -361,8 +361,9 @@ class SKFOperator:
         memory_limit : float, optional
             Bytes the reconstruction may use (default half the memory available).
         standardize : {"column", "position"}
-            Each column of the forward standardized on its own (the paper's), or each
-            source position's ``n_components`` columns as a whole (docs/model.md §2).
+            Each source position's ``n_components`` columns standardized as a whole (the
+            default, docs/model.md §2; with fixed orientation the same as ``"column"``), or
+            each column of the forward on its own (the paper's).
 
         Returns
         -------

@@ -28,11 +28,17 @@ __all__ = [
     "check_smoother",
 ]
 
-#: The setting the package recommends and defaults to: the original SKF, exponent 0.5
-#: without smoothing. Chosen by a rule committed before the numbers it read (the study's
-#: "Which setting, and against what", validation/report/REPORT.md): of the 12 exponent x
-#: smoother settings, the one that separates a deep source present from absent (ROC area
-#: >= 0.9 at 20 and 30 dB) with the smallest localization error.
+#: The exponent and smoother the package recommends and defaults to: exponent 0.5 without
+#: smoothing. Chosen by a rule committed before the numbers it read (validation/report/
+#: REPORT.md, "The default, by a rule committed first"): of 64 settings (exponent x smoother
+#: x standardization x priors), the one meeting the three success criteria with the lowest
+#: localization error, "SKF 0.5, no smoother, position, EP 0 / PM 0". Its other two parts
+#: are not in this mapping, which ``reconstruct(L, Y, ..., **RECOMMENDED_SETTING)`` takes
+#: on bare arrays: the standardization ``standardize="position"`` (each source position's
+#: block; needs ``n_orient``, which an array does not carry, so :func:`skf_ref.reconstruct`
+#: defaults to ``"column"`` and the MNE routes, which take ``n_orient`` from the forward,
+#: to ``"position"``), and the priors PM-SNR 0 dB, EP-SNR 0 dB (the defaults of
+#: :func:`skf_ref.make_skf_operator`, :func:`skf_ref.apply_skf` and the command line).
 RECOMMENDED_SETTING = MappingProxyType({"exponent": 0.5, "smoother": None})
 #: The paper's setting (exponent 1.25, its smoother), one argument away:
 #: ``reconstruct(L, Y, ..., **PAPER_SETTING)``. In the study it "detects" a deep source that

@@ -4,10 +4,12 @@ One simulated data set of the paper's scenario (a deep thalamic and a superficia
 dipole, 2 ms apart) and its control, the same noise with the deep source left out, each
 reconstructed three ways:
 
-- the SKF at the chosen setting (default: the recommended one, exponent 0.5 without
-  smoothing, :data:`skf_ref.RECOMMENDED_SETTING`);
+- the SKF at the chosen setting (default: the one the study's rule chose, exponent 0.5
+  without smoothing, :data:`skf_ref.RECOMMENDED_SETTING`, each source position
+  standardized as a whole, priors PM-SNR 0 dB and EP-SNR 0 dB);
 - the SKF at the paper's setting (exponent 1.25, ``"rts-standardized"``,
-  :data:`skf_ref.PAPER_SETTING`);
+  :data:`skf_ref.PAPER_SETTING`) with the paper's priors for it, PM-SNR 0 dB and EP-SNR
+  20 dB (with ``"auto"`` priors, the ones chosen for the first);
 - MNE's sLORETA (``mne.minimum_norm``, lambda2 = 1/9, the same noise covariance).
 
 The metrics say, for each, where the peaks are and whether the thalamus "detects" a source
@@ -36,7 +38,7 @@ from .._utils.atomic_files import atomic_path
 from .._utils.checks import InputError, check_choice, check_int
 from .._utils.log import logger, progress, verbosity
 from ..method import PAPER_SETTING
-from ..method._settings import check_smoother
+from ..method._settings import STANDARDIZATIONS, check_smoother
 from .sizes import DEFAULT_POSITIONS
 
 if TYPE_CHECKING:
@@ -65,6 +67,8 @@ OUTPUTS = (
     "time_courses_skf.png",
 )
 _SLORETA_LAMBDA2 = 1.0 / 9.0
+#: The paper's priors for its setting (PM-SNR, EP-SNR in dB), as the study runs it.
+_PAPER_PRIORS = (0.0, 20.0)
 _SUFFIX = {"present": "", "deep absent": "_deep_absent"}  # of the arrays' names
 #: The metrics of calibrated detection (cortex + thalamus heads), as metrics.COLUMNS.
 DETECTION_COLUMNS = (
@@ -123,9 +127,10 @@ def run_demo(
     testing_data: str | os.PathLike | None = None,
     cache_dir: str | os.PathLike | None = None,
     pm_snr_db: float | str = 0.0,
-    ep_snr_db: float | str = 20.0,
+    ep_snr_db: float | str = 0.0,
     exponent: float = 0.5,
     smoother: str | None = None,
+    standardize: str = "position",
     verbose: bool | str | int | None = None,
 ) -> Demo:
     """Simulate the P20/N20 scenario and its control; reconstruct them three ways.
@@ -150,12 +155,17 @@ def run_demo(
     testing_data, cache_dir : path-like or None
         MNE's testing dataset folder, and where the realistic head's forwards are cached.
     pm_snr_db, ep_snr_db : float or "auto"
-        The SKF's priors (docs/model.md §4); "auto": chosen by the marginal likelihood of
-        the data with both sources; the control reuses them.
+        The first SKF's priors (docs/model.md §4); "auto": chosen by the marginal
+        likelihood of the data with both sources, for both SKFs; the control reuses them.
+        With numbers, the paper's setting runs at its own priors, PM-SNR 0 and EP-SNR 20 dB.
     exponent : float
         Standardization exponent of the first SKF (the paper's setting is the second).
     smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
         Its smoother.
+    standardize : {"position", "column"}
+        Its standardization: each source position's three orientations as a whole (the
+        default, the study's rule's) or each column on its own (the paper's, which the
+        paper's setting keeps).
     verbose : bool or str or int or None
         Progress on the ``"skf_ref"`` logger, as MNE's ``verbose``.
 
@@ -173,6 +183,7 @@ def run_demo(
 
     check_choice("head", head, HEADS)
     smoother = check_smoother(smoother)
+    check_choice("standardize", standardize, STANDARDIZATIONS)
     seed = check_int("seed", seed, minimum=0)
     folder = _output_folder(out)
     with verbosity(verbose):
@@ -204,10 +215,13 @@ def run_demo(
             data: simulate(model, scenario, snr_db, seed, sources=sources)
             for data, sources in DATA.items()
         }
-        setting = {"exponent": exponent, "smoother": smoother}
+        setting = {"exponent": exponent, "smoother": smoother, "standardize": standardize}
+        setting["n_orient"] = 3 if standardize == "position" else None  # free orientation
         with progress("SKF and sLORETA"):
             priors, tuning = _priors(model, sims["present"], pm_snr_db, ep_snr_db)
-            reconstructions = _skf(model, sims, priors, {"skf": setting, "paper": PAPER_SETTING})
+            paper_priors = priors if tuning else _priors(model, sims["present"], *_PAPER_PRIORS)[0]
+            runs = {"skf": (priors, setting), "paper": (paper_priors, PAPER_SETTING)}
+            reconstructions = _skf(model, sims, runs)
             estimates = {key: rec.amplitude(3) for key, rec in reconstructions.items()}
             sloreta = _sloreta_method(model, sims["present"])
             estimates.update({("sLORETA", data): sloreta(sim.Y) for data, sim in sims.items()})
@@ -220,7 +234,7 @@ def run_demo(
         )
         if source_space == "anatomical":
             with progress("thresholds calibrated on null runs"):
-                methods_ = _methods(model, sims["present"], priors, setting, sloreta)
+                methods_ = _methods(model, sims["present"], runs, sloreta)
                 thresholds = calibrate(model, sims["present"], methods_, seed=seed)
             _detections(table, model, estimates, thresholds, truth.peak_indices[0])
         methods = {
@@ -230,6 +244,7 @@ def run_demo(
         }
         settings = _settings(model, sims["present"], setting, priors, tuning, snr_db, seed)
         settings.update(pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db, positions_requested=n_positions)
+        settings.update(paper_theta0=paper_priors[0], paper_q=paper_priors[1])
         demo = Demo(model, sims, methods, reconstructions, estimates, table, settings)
         if folder is not None:
             with progress("figures and files"):
@@ -260,7 +275,8 @@ def _output_folder(out: str | os.PathLike | None) -> Path | None:
 
 def _label(setting: Mapping[str, Any]) -> str:
     smoother = setting["smoother"] or "no smoother"
-    return f"SKF, exponent {setting['exponent']:g}, {smoother}"
+    standardize = f", {setting['standardize']}" if "standardize" in setting else ""
+    return f"SKF, exponent {setting['exponent']:g}, {smoother}{standardize}"
 
 
 def _priors(
@@ -284,14 +300,12 @@ def _priors(
 def _skf(
     head: HeadModel,
     sims: Mapping[str, Simulation],
-    priors: tuple[float, float],
-    settings: Mapping[str, Mapping[str, Any]],
+    runs: Mapping[str, tuple[tuple[float, float], Mapping[str, Any]]],
 ) -> dict[tuple[str, str], Reconstruction]:
     from ..method import reconstruct
 
-    theta0, q = priors
     out: dict[tuple[str, str], Reconstruction] = {}
-    for key, setting in settings.items():
+    for key, ((theta0, q), setting) in runs.items():
         for data, sim in sims.items():
             rec = reconstruct(
                 head.leadfield, sim.Y, noise_std=sim.sigma, theta0=theta0, q=q, **setting
@@ -324,14 +338,13 @@ def _sloreta_method(head: HeadModel, sim: Simulation) -> Callable[[np.ndarray], 
 def _methods(
     head: HeadModel,
     sim: Simulation,
-    priors: tuple[float, float],
-    setting: Mapping[str, Any],
+    runs: Mapping[str, tuple[tuple[float, float], Mapping[str, Any]]],
     sloreta: Callable[[np.ndarray], np.ndarray],
 ) -> dict[str, Callable[[np.ndarray], np.ndarray]]:
     """The demo's three methods as maps from data to position amplitudes (the priors fixed)."""
     from ..method import reconstruct
 
-    def skf(options: Mapping[str, Any]) -> Callable[[np.ndarray], np.ndarray]:
+    def skf(priors: tuple[float, float], options: Mapping[str, Any]) -> Callable[..., np.ndarray]:
         def method(Y: np.ndarray) -> np.ndarray:
             rec = reconstruct(
                 head.leadfield, Y, noise_std=sim.sigma, theta0=priors[0], q=priors[1], **options
@@ -340,7 +353,7 @@ def _methods(
 
         return method
 
-    return {"skf": skf(setting), "paper": skf(PAPER_SETTING), "sLORETA": sloreta}
+    return {**{key: skf(*run) for key, run in runs.items()}, "sLORETA": sloreta}
 
 
 def _detections(
@@ -381,6 +394,7 @@ def _settings(
         "tuned_ep_snr_db": None if tuning is None else tuning.ep_snr_db,
         "exponent": setting["exponent"],
         "smoother": setting["smoother"],
+        "standardize": setting["standardize"],
         "paper_setting": dict(PAPER_SETTING),
         "sloreta_lambda2": _SLORETA_LAMBDA2,
         "data": {label: list(sources) for label, sources in DATA.items()},
