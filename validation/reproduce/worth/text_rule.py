@@ -6,7 +6,10 @@ The rule and the success criteria are printed verbatim from the pre-registration
 
 from __future__ import annotations
 
+import inspect
 from pathlib import Path
+
+from skf_ref import make_skf_operator
 
 from .design import SNRS, Static
 from .rule import MARGIN_MM, criteria, inputs
@@ -86,8 +89,15 @@ def headline_table(worth, snr):
     return markdown_table(header, rows)
 
 
+def _package_priors() -> tuple[float, float]:
+    """The default priors (EP-SNR, PM-SNR) in dB of ``make_skf_operator`` (``apply_skf`` and
+    the command line take the same), read from the package itself."""
+    defaults = inspect.signature(make_skf_operator).parameters
+    return float(defaults["ep_snr_db"].default), float(defaults["pm_snr_db"].default)
+
+
 #: The package's default priors (EP-SNR, PM-SNR) in dB, of ``apply_skf`` and the commands.
-PACKAGE_PRIORS = (20.0, 0.0)
+PACKAGE_PRIORS = _package_priors()
 
 
 def rule_text(worth):
@@ -103,8 +113,8 @@ def rule_text(worth):
         verdict += (
             f" Its priors (EP {setting.ep_snr_db:g} / PM {setting.pm_snr_db:g} dB) are not the "
             f"package's default priors (EP {PACKAGE_PRIORS[0]:g} / PM {PACKAGE_PRIORS[1]:g} dB): "
-            "`RECOMMENDED_SETTING` records them, and the defaults of `apply_skf` and the command "
-            "line must follow (section 10)."
+            "the defaults of `apply_skf`, `make_skf_operator` and the command line must follow "
+            "(section 10)."
         )
     ranked = table.sort_values(["met", "mean_error_mm"], ascending=[False, True]).head(8)
     rows = [
