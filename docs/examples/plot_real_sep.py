@@ -76,12 +76,14 @@ print(noise_cov)
 # %%
 # 4. The SKF and MNE's methods
 # ----------------------------
-# The SKF at the recommended setting and at the paper's (``**skf_ref.PAPER_SETTING``), and
+# The SKF at the package's default (EP-SNR 0 dB) and at the paper's setting with the paper's
+# priors (``**skf_ref.PAPER_SETTING``, EP-SNR 20 dB; the forward has fixed orientations, so
+# the two standardizations are one), and
 # MNE's sLORETA and dSPM at lambda2 = 1/9, without depth weighting (MNE refuses it on a
 # fixed-orientation forward that was never free, as section 6's). ``apply_skf`` of this
-# version whitens with the covariance as given and does not divide it by ``evoked.nave`` as
-# ``apply_inverse`` does: it gets the average's own covariance and an evoked whose ``nave``
-# is 1, the same whitening (and still right once it divides by ``nave`` itself).
+# The SKF gets, as MxNE and LCMV do, the average's own covariance and an evoked whose
+# ``nave`` is 1: the same whitening as the trials' covariance with ``nave``, which
+# ``apply_skf`` divides by as ``apply_inverse`` does.
 
 
 def of_average(evoked, noise_cov):
@@ -99,7 +101,7 @@ def estimates(evoked, forward, noise_cov):
     stcs = {
         "SKF, recommended": skf_ref.apply_skf(average, forward, covariance, verbose=False),
         "SKF, paper's": skf_ref.apply_skf(
-            average, forward, covariance, **skf_ref.PAPER_SETTING, verbose=False
+            average, forward, covariance, **skf_ref.PAPER_SETTING, ep_snr_db=20.0, verbose=False
         ),
     }
     fixed = mne.forward.is_fixed_orient(forward)
@@ -157,11 +159,14 @@ maxima(stcs, forward, N20, sphere["r0"])
 fig_sphere = projections(stcs, forward, N20, "256 channels, sphere: the N20 (19.3 ms)")
 
 # %%
-# On this sphere the SKF's and sLORETA's maxima at the N20 lie low at the back of the grid,
-# under the neck electrodes that still carry the largest amplitudes at 19.3 ms, not under
-# the left central scalp; dSPM's lies 21 mm from the centre, in the deep region. The sphere
-# fills the space below the brain with sources, and every method shares its misfit. The
-# report has every method, priors chosen by the data, and the P14 and P16 latencies.
+# On this sphere no method puts the N20 under the left central scalp. The SKF at the default
+# (each position standardized as a whole, EP-SNR 0 dB) puts it in the left hemisphere, high
+# and posterior, 45 mm from the centre; at the paper's setting it lies in the right
+# hemisphere, low and frontal; sLORETA's lies low at the back of the grid, under the neck
+# electrodes that still carry the largest amplitudes at 19.3 ms; dSPM's lies 21 mm from the
+# centre, in the deep region. The sphere fills the space below the brain with sources, and
+# every method shares its misfit. The report has every method, priors chosen by the data,
+# and the P14 and P16 latencies.
 #
 # 6. Your own head model: subject A0206 and its FEM lead field
 # -------------------------------------------------------------
