@@ -5,11 +5,10 @@ MNE-Python computes its own methods here (``mne.minimum_norm``, ``mne.beamformer
 amplitude at each position of the forward (absolute value for a fixed orientation, norm over
 the three for a free one), zero where a sparse estimate has no source.
 
-**nave.** MNE's minimum-norm methods divide the noise covariance by ``evoked.nave``; LCMV,
-MxNE and (today) :func:`skf_ref.apply_skf` do not. Those get :func:`of_average`: the
-average's own covariance and an evoked whose ``nave`` is 1, the same whitening. When
-``apply_skf`` divides by ``nave`` itself (as MNE does), the SKF can take ``evoked, noise_cov``
-as the minimum-norm methods do; the pair given here stays right either way.
+**nave.** MNE's minimum-norm methods and :func:`skf_ref.apply_skf` (since 0.4.0) divide the
+noise covariance by ``evoked.nave``; LCMV and MxNE do not. Those get :func:`of_average`: the
+average's own covariance and an evoked whose ``nave`` is 1, the same whitening. The SKF got
+it too when the report ran (before ``apply_skf`` divided); the pair stays right either way.
 """
 
 import inspect
