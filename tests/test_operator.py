@@ -5,6 +5,7 @@ the whitening, the SVD and the covariance recursion are computed once; what the 
 leaves out is said; what it cannot use is refused in one clear error.
 """
 
+import copy
 import types
 
 import mne
@@ -352,6 +353,7 @@ def test_the_types_come_from_the_data(meg_eeg):
     stc, rec = apply_skf(meg_only, meg_forward, cov, return_reconstruction=True)
     operator = make_skf_operator(meg_only.info, meg_forward, cov, verbose=False)
     assert len(operator.ch_names) == 306 and operator.eeg_names == []
+    assert rec.settings["standardize"] == "column"  # MEG alone: the column form by default
     np.testing.assert_array_equal(apply_skf(meg_only, operator).data, stc.data)
     with pytest.raises(InputError, match="eeg=True asks for eeg channels, but none is common"):
         make_skf_operator(meg_only.info, meg_forward, cov, eeg=True)
@@ -402,3 +404,19 @@ def test_an_operator_shows_itself_in_a_notebook(operator):
         assert cell in html
     for prior in ("PM-SNR", "EP-SNR"):  # the defaults, 0 dB each
         assert f"{prior}</th><td style='text-align:left'>0 dB<" in html
+
+
+def test_the_default_standardization_is_per_position_with_eeg_and_per_column_for_meg_alone(
+    meg_eeg,
+):
+    # MEG does not see a position's radial orientation in a spherical head: its 3 x 3
+    # blocks are singular, and the study that chose "position" measured EEG only
+    evoked, forward, cov = meg_eeg
+    # (test_the_types_come_from_the_data runs an MEG-only evoked through it, off the axes)
+    with_eeg = make_skf_operator(evoked.info, forward, cov, verbose=False)
+    assert with_eeg.default_standardize == "position"
+    meg_alone = copy.copy(with_eeg)
+    meg_alone.eeg_names = []
+    assert meg_alone.default_standardize == "column"
+    data = with_eeg.select(evoked.info, evoked.data)[:, :5]
+    assert with_eeg.reconstruct(data).settings["standardize"] == "position"

@@ -96,9 +96,10 @@ def test_the_routes_that_know_the_orientations_default_to_the_rules_standardizat
         return inspect.signature(function).parameters[name].default
 
     assert default(skf_ref.reconstruct, "standardize") == "column"
-    routes = (skf_ref.apply_skf, skf_ref.apply_skf_epochs, skf_ref.apply_skf_raw, run_demo)
-    for function in (*routes, skf_ref.SKFOperator.reconstruct):
-        assert default(function, "standardize") == "position", function.__qualname__
+    assert default(run_demo, "standardize") == "position"
+    routes = (skf_ref.apply_skf, skf_ref.apply_skf_epochs, skf_ref.apply_skf_raw)
+    for function in (*routes, skf_ref.SKFOperator.reconstruct):  # the operator decides:
+        assert default(function, "standardize") is None, function.__qualname__
     assert default(skf_ref.make_skf_operator, "ep_snr_db") == 0.0
     assert default(skf_ref.make_skf_operator, "pm_snr_db") == 0.0
     assert default(run_demo, "ep_snr_db") == 0.0 and default(run_demo, "pm_snr_db") == 0.0

@@ -169,7 +169,13 @@ class TestReport:
     def test_every_linked_figure_exists(self, reports):
         folder = reports[0][0]
         links = FIGURE_LINK.findall((folder / "REPORT.md").read_text())
-        assert links == ["source_placement.png", "baselines/roc.png", "baselines/deep_scores.png"]
+        assert links == [
+            "source_placement.png",
+            "worth/cross_talk.png",
+            "worth/windows.png",
+            "baselines/roc.png",
+            "baselines/deep_scores.png",
+        ]
         for cell in SPHERE_CELLS:
             page = folder / cell.name / "CELL.md"
             cell_links = FIGURE_LINK.findall(page.read_text())

@@ -92,10 +92,10 @@ def add_parser(subparsers: Any) -> None:
         "--standardize",
         choices=("column", "position"),
         help="standardize each source position's orientations as a whole, as sLORETA "
-        "(docs/model.md section 2; default on the MNE route, which takes the orientations "
-        "from the forward), or each column of the lead field on its own (the paper's; "
-        "default on the array route, where an array does not say which columns form a "
-        "position)",
+        "(docs/model.md section 2; default on the MNE route with EEG, which takes the "
+        "orientations from the forward), or each column of the lead field on its own (the "
+        "paper's; default on the array route, where an array does not say which columns "
+        "form a position, and for MEG alone)",
     )
     model.add_argument(
         "--n-orient",
@@ -163,8 +163,8 @@ def _route(args):
         if getattr(args, flag) is not None and not mne_route:
             raise InputError(f"argument --{flag}: channel types are picked on the MNE route only")
     _check_outputs(args)
-    if args.standardize is None:  # an array does not say which columns form a position
-        args.standardize = "position" if mne_route else "column"
+    if args.standardize is None and not mne_route:  # an array does not say which columns
+        args.standardize = "column"  # form a position; the MNE route's operator decides
     return "mne" if mne_route else "arrays"
 
 
@@ -355,6 +355,7 @@ def _mne_route(args):
         verbose=False,
     )
     report_tuning(args, rec.tuning)
+    args.standardize = rec.settings["standardize"]  # the operator's default, if not given
     args.channels = {"used": operator.ch_names, "left_out": operator.dropped}
     if not args.quiet:
         left_out = "".join(f"; {k}: {', '.join(v)}" for k, v in operator.dropped.items())

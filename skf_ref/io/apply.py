@@ -73,7 +73,7 @@ def apply_skf(
     smoother: str | None = None,
     pick_ori: str | None = None,
     method: str = "auto",
-    standardize: str = "position",
+    standardize: str | None = None,
     meg: bool | str | None = None,
     eeg: bool | None = None,
     return_reconstruction: bool = False,
@@ -97,7 +97,9 @@ def apply_skf(
     (validation/report/REPORT.md): exponent 0.5 without smoothing
     (:data:`skf_ref.RECOMMENDED_SETTING`), each source position standardized as a whole
     (``standardize="position"``, ``n_orient`` from the forward: for a fixed-orientation
-    forward it equals the per-column form), and priors PM-SNR 0 dB, EP-SNR 0 dB. The
+    forward it equals the per-column form; with EEG: for MEG alone, whose blocks are
+    singular where the radial orientation is silent, ``"column"``), and priors PM-SNR 0 dB,
+    EP-SNR 0 dB. The
     paper's form is ``standardize="column"``, and the defaults before 0.4.0 were
     ``standardize="column"`` with EP-SNR 20 dB (``ep_snr_db=20``). On an MNE sphere
     forward (12 mm volume grid of 1254 positions, biosemi64; one dipole at a time at 9
@@ -148,10 +150,12 @@ def apply_skf(
         ``None``: per-position amplitude (free) or signed values (fixed); ``"vector"``: the
         three components of a free-orientation forward.
     method : {"auto", "filterpy", "dense", "spectral"}
-    standardize : {"column", "position"}
-        ``"position"`` (the default): each source position's orientations as a whole, as
-        sLORETA (docs/model.md §2), the columns per position from the forward (3 free, 1
-        fixed); ``"column"`` (the paper's): each column of the forward on its own.
+    standardize : {"column", "position"}, optional
+        ``"position"``: each source position's orientations as a whole, as sLORETA
+        (docs/model.md §2), the columns per position from the forward (3 free, 1 fixed);
+        ``"column"`` (the paper's): each column of the forward on its own. Default: the
+        operator's ``SKFOperator.default_standardize`` (``"position"`` with
+        EEG, ``"column"`` for MEG alone).
     meg : None or bool or "mag" or "grad"
     eeg : None or bool
         Without an operator: the channel types (:func:`skf_ref.make_skf_operator`);
@@ -205,7 +209,7 @@ def apply_skf_epochs(
     smoother: str | None = None,
     pick_ori: str | None = None,
     method: str = "auto",
-    standardize: str = "position",
+    standardize: str | None = None,
     nave: float = 1,
     return_generator: bool = False,
     verbose: bool | str | int | None = None,

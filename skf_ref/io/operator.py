@@ -189,6 +189,18 @@ class SKFOperator:
         self.eeg_names = [c for c, k in zip(ch_names, self.ch_types, strict=True) if k == "eeg"]
 
     @property
+    def default_standardize(self) -> str:
+        """What :meth:`reconstruct` standardizes as a whole by default (str).
+
+        ``"position"`` (each position's orientations as a whole) when the operator uses EEG
+        channels: the setting the pre-registered study chose, on EEG
+        (validation/report/REPORT.md). ``"column"`` for MEG alone: MEG barely sees, and in
+        a spherical head does not see, a position's radial orientation, so its 3 x 3 blocks
+        are singular or nearly so; the study did not measure MEG.
+        """
+        return "position" if self.eeg_names else "column"
+
+    @property
     def n_sources(self) -> int:
         """Columns of the lead field (int)."""
         return self.leadfield.shape[1]
@@ -342,7 +354,7 @@ class SKFOperator:
         smoother: str | None = None,
         method: str = "auto",
         memory_limit: float | None = None,
-        standardize: str = "position",
+        standardize: str | None = None,
     ) -> Reconstruction:
         """The SKF on data of the operator's channels (in ``ch_names`` order).
 
@@ -360,10 +372,12 @@ class SKFOperator:
             ``"auto"`` and ``"spectral"`` reuse the operator's SVD and recursions.
         memory_limit : float, optional
             Bytes the reconstruction may use (default half the memory available).
-        standardize : {"column", "position"}
-            Each source position's ``n_components`` columns standardized as a whole (the
-            default, docs/model.md §2; with fixed orientation the same as ``"column"``), or
-            each column of the forward on its own (the paper's).
+        standardize : {"column", "position"}, optional
+            Each source position's ``n_components`` columns standardized as a whole
+            (docs/model.md §2; with fixed orientation the same as ``"column"``), or each
+            column of the forward on its own (the paper's). Default
+            ``default_standardize``: ``"position"`` when the operator uses EEG (the
+            setting the study chose, on EEG), ``"column"`` for MEG alone.
 
         Returns
         -------
@@ -374,6 +388,7 @@ class SKFOperator:
         """
         data = check_array("data", data, (len(self.ch_names), "n_times"), finite=False)
         missing = missing_steps(data, "data")  # columns of NaN: bad segments
+        standardize = self.default_standardize if standardize is None else standardize
         settings = check_settings(
             exponent, smoother, method, standardize, self.n_components, self.n_sources
         )

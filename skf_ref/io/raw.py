@@ -38,7 +38,7 @@ def apply_skf_raw(
     exponent: float = 0.5,
     smoother: str | None = None,
     pick_ori: str | None = None,
-    standardize: str = "position",
+    standardize: str | None = None,
     out: str | os.PathLike[str] | None = None,
     overwrite: bool = False,
     memory_limit: float | None = None,
