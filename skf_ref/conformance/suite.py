@@ -93,7 +93,7 @@ def manifest(suite: int = CONFORMANCE_VERSION) -> dict[str, Any]:
     Parameters
     ----------
     suite : int
-        The suite version (:data:`SUITES`); this version's by default.
+        The suite version (``SUITES``); this version's by default.
 
     Returns
     -------
@@ -146,7 +146,7 @@ def verify(directory: str | os.PathLike = SUITE, suite: int = CONFORMANCE_VERSIO
     directory : path-like
         A folder :func:`export` wrote (any of its formats), or the pinned suite itself.
     suite : int
-        The suite version it holds (:data:`SUITES`); this version's by default.
+        The suite version it holds (``SUITES``); this version's by default.
 
     Returns
     -------
@@ -266,7 +266,7 @@ def export(
         Created if missing.
     formats : sequence of {"npz", "mat"}
     suite : int
-        The suite version (:data:`SUITES`): this version's by default; ``2`` copies
+        The suite version (``SUITES``): this version's by default; ``2`` copies
         version 2's files, byte for byte as earlier packages exported them.
 
     Returns

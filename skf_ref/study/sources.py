@@ -320,8 +320,8 @@ def draw_sources(
     For each position (in the order given): a uniformly random rotation (its first
     ``n_orientations`` rows are the sources' orientations), then a point drawn uniformly in
     the position's grid cell, redrawn until it lies in the position's label (where the head
-    has label voxels), at most :data:`MAX_DRAWS` times, and again while MNE's forward leaves
-    it out (:data:`FORWARD_ROUNDS` forward computations at most); the grid position itself
+    has label voxels), at most ``MAX_DRAWS`` times, and again while MNE's forward leaves
+    it out (``FORWARD_ROUNDS`` forward computations at most); the grid position itself
     where that fails (``on_grid``).
 
     Parameters
