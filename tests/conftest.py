@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from hypothesis import settings
 
-# The default run (and CI) draws the same examples every time: a red run can be rerun. 50
+# The default run (and CI) draws the same examples every time: a red run can be rerun. 25
 # models a property in the default run (its time budget); CI draws 150 of each again
 # (``--hypothesis-profile=thorough -m property``).
-settings.register_profile("default", max_examples=50, deadline=None, derandomize=True)
+settings.register_profile("default", max_examples=25, deadline=None, derandomize=True)
 settings.register_profile("thorough", max_examples=150, deadline=None, derandomize=True)
 # ``--hypothesis-profile=explore``: thousands of fresh models, and hypothesis's example
 # database keeps any failure it finds for the next run.

@@ -393,6 +393,7 @@ def _arrays(folder):
             "--noise-std", "1", "--out", folder / "o.npz"]  # fmt: skip
 
 
+@pytest.mark.slow
 def test_ctrl_c_while_the_command_winds_down_ends_with_one_line_and_130(tmp_path):
     process = start(_WINDING_DOWN, *_arrays(tmp_path), "--quiet")
     wait_for_line(process, "winding down")
@@ -456,6 +457,7 @@ _IN_A_FINALIZER = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 def test_an_interruption_swallowed_on_its_way_still_ends_with_130(tmp_path):
     process = start(_IN_A_FINALIZER, *_arrays(tmp_path), "--quiet")
     wait_for_line(process, "finalizing")
