@@ -131,9 +131,6 @@ def compare(
                 f"  pair {i + 1}: floor {fw:.3f} s ({fc:.2f} CPU-s), path {pw:.3f} s "
                 f"({pc:.2f} CPU-s), ratio {pw / fw:.3f}, load {load[0]:.2f}/{load[1]:.0f}"
             )
-    ratio = timing.quartiles([p[0] / f[0] for f, p in pairs])
-    cpu_ratio = timing.quartiles([p[1] / f[1] for f, p in pairs])
-    loads = [run[2] for pair in pairs for run in pair]
     n = problem["head"].leadfield.shape[1]
     m, T = problem["Y"].shape
     condition = "competitor" if busy else "quiet"
@@ -142,24 +139,12 @@ def compare(
         n_channels=m,
         n_times=T,
         condition=condition,
-        pairs=len(pairs),
-        path_seconds=float(np.median([p[0] for _, p in pairs])),
-        path_cpu_seconds=float(np.median([p[1] for _, p in pairs])),
-        floor_seconds=float(np.median([f[0] for f, _ in pairs])),
-        floor_cpu_seconds=float(np.median([f[1] for f, _ in pairs])),
+        **timing.pair_summary(pairs, "floor", "path"),
         **{
             f"floor_{name}_seconds": float(np.median([f[3][name] for f, _ in pairs]))
             for name in ("svd", "products", "elementwise")
         },
-        ratio=ratio[0],
-        ratio_q1=ratio[1],
-        ratio_q3=ratio[2],
-        cpu_ratio=cpu_ratio[0],
-        cpu_ratio_q1=cpu_ratio[1],
-        cpu_ratio_q3=cpu_ratio[2],
         target=TARGETS[condition],
-        load_1min=float(np.median([one for one, _ in loads])),
-        runnable=float(np.median([now for _, now in loads])),
         **blas_columns(),
     )
     return row

@@ -35,7 +35,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from skf_ref._utils.atomic_files import atomic_path
@@ -141,30 +140,15 @@ def compare(problem, label, repeats=5, progress=print):
             f"  {label}, pair {i + 1}: baseline {bw:.2f} s ({bc:.2f} CPU-s), compared "
             f"{cw:.2f} s ({cc:.2f} CPU-s), ratio {cw / bw:.3f}, load {load[0]:.2f}/{load[1]:.0f}"
         )
-    ratio = timing.quartiles([c[0] / b[0] for b, c in pairs])
-    cpu_ratio = timing.quartiles([c[1] / b[1] for b, c in pairs])
-    loads = [run[2] for pair in pairs for run in pair]
     n, m, T = (problem["head"].leadfield.shape[1], *problem["Y"].shape)
     return dict(
         comparison=label,
         n_columns=n,
         n_channels=m,
         n_times=T,
-        pairs=len(pairs),
-        baseline_seconds=float(np.median([b[0] for b, _ in pairs])),
-        baseline_cpu_seconds=float(np.median([b[1] for b, _ in pairs])),
-        compared_seconds=float(np.median([c[0] for _, c in pairs])),
-        compared_cpu_seconds=float(np.median([c[1] for _, c in pairs])),
+        **timing.pair_summary(pairs, "baseline", "compared"),
         first_compared_seconds=first[1][0],
-        ratio=ratio[0],
-        ratio_q1=ratio[1],
-        ratio_q3=ratio[2],
-        cpu_ratio=cpu_ratio[0],
-        cpu_ratio_q1=cpu_ratio[1],
-        cpu_ratio_q3=cpu_ratio[2],
         target=TARGETS[label],
-        load_1min=float(np.median([one for one, _ in loads])),
-        runnable=float(np.median([now for _, now in loads])),
         **blas_columns(),
     )
 

@@ -18,7 +18,15 @@ import tracemalloc
 
 import numpy as np
 
-__all__ = ["SLOW_SECONDS", "competitor", "load", "measure", "quartiles", "replace_section"]
+__all__ = [
+    "SLOW_SECONDS",
+    "competitor",
+    "load",
+    "measure",
+    "pair_summary",
+    "quartiles",
+    "replace_section",
+]
 
 #: Stop repeating a call once its runs have taken this long in total.
 SLOW_SECONDS = 60.0
@@ -47,6 +55,35 @@ def quartiles(values):
     """Median and interquartile range of ``values``: ``(median, q1, q3)``."""
     q1, median, q3 = np.percentile(values, [25, 50, 75])
     return float(median), float(q1), float(q3)
+
+
+def pair_summary(pairs, first, second):
+    """Medians and ratios of alternated pairs of runs, as the benchmarks' table columns.
+
+    ``pairs`` holds ``(a, b)``, each run ``(wall s, CPU s, (1-minute load, runnable), ...)``;
+    ``first`` and ``second`` name ``a`` and ``b`` in the columns. The ratios are ``b / a``
+    pair by pair (both runs of a pair saw the same load): median and quartiles of wall and
+    CPU time; the load is the median over every run.
+    """
+    loads = [run[2] for pair in pairs for run in pair]
+    ratio = quartiles([b[0] / a[0] for a, b in pairs])
+    cpu_ratio = quartiles([b[1] / a[1] for a, b in pairs])
+    medians = {}
+    for name, index in ((first, 0), (second, 1)):
+        medians[f"{name}_seconds"] = float(np.median([pair[index][0] for pair in pairs]))
+        medians[f"{name}_cpu_seconds"] = float(np.median([pair[index][1] for pair in pairs]))
+    return dict(
+        pairs=len(pairs),
+        **medians,
+        ratio=ratio[0],
+        ratio_q1=ratio[1],
+        ratio_q3=ratio[2],
+        cpu_ratio=cpu_ratio[0],
+        cpu_ratio_q1=cpu_ratio[1],
+        cpu_ratio_q3=cpu_ratio[2],
+        load_1min=float(np.median([one for one, _ in loads])),
+        runnable=float(np.median([now for _, now in loads])),
+    )
 
 
 def measure(run, repeats, trace_memory=True):

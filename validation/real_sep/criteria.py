@@ -75,7 +75,8 @@ Cartesian axis; area 3b's dipole is tangential: at more than 60 degrees from `u`
 scored. The time courses shown are those of the N20 maximum, of the largest deep source at
 the P14, and of the largest amplitude in the central and the deep regions.
 
-**What is compared**: the SKF at the paper's setting and at the recommended one, each with
+**What is compared**: the SKF at the paper's setting and at the recommended one (each
+column standardized on its own, as the paper does), each with
 priors chosen by the data (the marginal likelihood, PM-SNR and EP-SNR in -20 ... 40 dB) and
 at fixed priors (PM 0 / EP 20 dB, the paper's for its smoother; PM 0 / EP 0 dB); MNE's
 MNE, dSPM, sLORETA and eLORETA with lambda2 by the discrepancy principle (the whitened
@@ -87,7 +88,13 @@ minimum-norm methods run without depth weighting (MNE refuses it on a forward th
 never free, as A0206's FEM; the same on the sphere), MxNE at MNE's default depth (0.8).
 Noise covariance: the average's baseline (A0206 -100 ... -20 ms, 256 channels -50 ... 0
 ms), 10 % regularized, in MNE's convention with `nave`; the methods that ignore `nave`
-(the SKF today, LCMV, MxNE) get the covariance of the average itself.
+(LCMV, MxNE; the SKF too until 0.4.0) get the covariance of the average itself.
+
+*Added after the first run* (no contrast named for them, reported beside the others): the
+SKF standardizing each source position's columns together (`standardize="position"`,
+exponent 0.5, no smoother; with PM 0 / EP 0 dB the package's default since the simulated
+study chose it) and the same with the smoother standardized by its own variance
+(`"rts-smoothed-weights"`), at the same three priors.
 
 **Contrasts named before the numbers**: (a) the SKF at the recommended setting against the
 paper's; (b) the SKF at the recommended setting (priors chosen by the data) against the

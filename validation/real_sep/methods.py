@@ -6,9 +6,9 @@ amplitude at each position of the forward (absolute value for a fixed orientatio
 the three for a free one), zero where a sparse estimate has no source.
 
 **nave.** MNE's minimum-norm methods and :func:`skf_ref.apply_skf` (since 0.4.0) divide the
-noise covariance by ``evoked.nave``; LCMV and MxNE do not. Those get :func:`of_average`: the
-average's own covariance and an evoked whose ``nave`` is 1, the same whitening. The SKF got
-it too when the report ran (before ``apply_skf`` divided); the pair stays right either way.
+noise covariance by ``evoked.nave``: they get the recording's evoked and covariance as they
+are. LCMV and MxNE do not; they get :func:`of_average`: the average's own covariance and an
+evoked whose ``nave`` is 1, the same whitening.
 """
 
 import inspect
@@ -81,7 +81,7 @@ def discrepancy_lambda2(evoked, inverse, tmin=0.0):
 
 
 def _skf(recording, params):
-    evoked, cov = of_average(recording)
+    evoked, cov = recording.evoked, recording.noise_cov
     priors = {k: params[k] for k in ("pm_snr_db", "ep_snr_db")}
     setting = {k: v for k, v in params.items() if k not in ("pm_snr_db", "ep_snr_db", "priors")}
     stc, rec = skf_ref.apply_skf(

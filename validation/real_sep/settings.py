@@ -1,20 +1,24 @@
 """Every method and setting the real SEPs go through: the one list to extend.
 
 A row is ``(name, family, parameters)``; :mod:`validation.real_sep.methods` runs a family with
-its parameters. When the SKF gains an option (the position standardization,
-``standardize="position"``, and the smoother ``"rts-smoothed-weights"``), add its settings to
-:data:`SKF_SETTINGS` and rerun ``python -m validation.real_sep``; nothing else changes.
+its parameters. When the SKF gains an option, add its settings to :data:`SKF_SETTINGS` and
+rerun ``python -m validation.real_sep``; nothing else changes.
 """
 
 import skf_ref
 
-#: The SKF's settings: exponent and smoother (and, later, standardization).
+#: The SKF's settings: exponent, smoother and standardization. "paper" and "recommended"
+#: standardize each column on its own, as when the criteria were written; "position" (each
+#: position's columns together, as apply_skf does by default with EEG since 0.4.0; with
+#: its PM 0 / EP 0 dB priors, the package's default) and the same with the smoother
+#: standardized by its own variance were added after the first run.
 SKF_SETTINGS = {
-    "paper": dict(skf_ref.PAPER_SETTING),
-    "recommended": dict(skf_ref.RECOMMENDED_SETTING),
-    # to add when the SKF has them (issue 33), e.g.:
-    # "position": dict(exponent=0.5, smoother=None, standardize="position"),
-    # "smoothed-weights": dict(exponent=0.5, smoother="rts-smoothed-weights"),
+    "paper": dict(skf_ref.PAPER_SETTING, standardize="column"),
+    "recommended": dict(skf_ref.RECOMMENDED_SETTING, standardize="column"),
+    "position": dict(skf_ref.RECOMMENDED_SETTING, standardize="position"),
+    "position, smoothed weights": dict(
+        exponent=0.5, smoother="rts-smoothed-weights", standardize="position"
+    ),
 }
 #: The SKF's priors: chosen by the data (marginal likelihood), and two fixed pairs.
 SKF_PRIORS = {
