@@ -139,7 +139,7 @@ def verdict(table):
     if all(outcome != "better than" for outcome in outcomes):
         lines.append(
             "\n**On these recordings the SKF did no better than MNE-Python's methods**, at "
-            "either setting and with either kind of prior."
+            "any of its settings and with either kind of prior."
         )
     elif all(outcome != "worse than" for outcome in outcomes):
         lines.append("\n**On these recordings the SKF did at least as well as MNE's methods.**")
