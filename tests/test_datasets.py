@@ -274,11 +274,10 @@ def test_mne_s_inverses_and_the_skf_accept_the_forward(a0206, forward):
     for method in ("MNE", "dSPM", "sLORETA"):
         stc = apply_inverse(a0206, inverse, 1 / 9, method, verbose=False)
         assert stc.data.shape == (5046, 360) and np.all(np.isfinite(stc.data)), method
-    # the SKF today whitens with the covariance as given: the average's (nave = 1 here)
-    average = a0206.copy()
-    average.nave = 1
-    stc = skf_ref.apply_skf(average, forward, _of_average(cov, a0206.nave), verbose=False)
+    # the SKF takes the average and the covariance as MNE's methods do (it divides by nave)
+    stc = skf_ref.apply_skf(a0206, forward, cov, verbose=False)
     assert stc.data.shape == (5046, 360) and np.all(np.isfinite(stc.data))
+    _same_as_of_the_average(stc, a0206, forward, cov)
 
 
 @pytest.mark.slow
@@ -297,10 +296,16 @@ def test_eloreta_and_lcmv_accept_the_forward(a0206, forward):
     assert np.all(np.isfinite(mne.beamformer.apply_lcmv(a0206, filters).data))
 
 
-def _of_average(cov, nave):
-    scaled = cov.copy()
-    scaled["data"] = cov["data"] / nave
-    return scaled
+def _same_as_of_the_average(stc, evoked, forward, cov):
+    """``stc`` equals the SKF of the same average given as one trial (nave 1) with the
+    covariance of the average (``cov / nave``): the whitening the report's LCMV and MxNE
+    get (validation/real_sep/methods.py)."""
+    single = evoked.copy()
+    single.nave = 1
+    of_average = cov.copy()
+    of_average["data"] = cov["data"] / evoked.nave
+    other = skf_ref.apply_skf(single, forward, of_average, verbose=False)
+    np.testing.assert_allclose(stc.data, other.data, rtol=1e-9, atol=1e-12 * abs(stc.data).max())
 
 
 # --- the noise covariance of an average ------------------------------------------------------
@@ -426,9 +431,8 @@ def test_sep256_forward_on_a_fitted_sphere(sep):
     assert abs(np.median(distances) - sphere.radius) < 0.01
     assert np.linalg.norm(fwd["source_rr"] - sphere["r0"], axis=1).max() < 0.9 * sphere.radius
     cov = skf_ref.datasets.baseline_noise_cov(sep)
-    average = sep.copy()
-    average.nave = 1
-    stc = skf_ref.apply_skf(average, fwd, _of_average(cov, sep.nave), verbose=False)
+    stc = skf_ref.apply_skf(sep, fwd, cov, verbose=False)
     assert np.all(np.isfinite(stc.data)) and stc.data.shape == (fwd["nsource"], 369)
+    _same_as_of_the_average(stc, sep, fwd, cov)
     with pytest.raises(InputError, match="spacing_mm must be"):
         skf_ref.datasets.sphere_forward(sep.info, spacing_mm=0)
