@@ -196,8 +196,26 @@ def output_folder(settings, out=None):
 # --------------------------------------------------------------------------- main
 
 
-def _judge_cell(result, settings, wanted, out, n_jobs=1):
-    """Verdicts, figures, diagnostics (and the sphere grid's sensitivity) of one cell."""
+def _judge_cells(results, settings, wanted, out, n_jobs):
+    """Judge every cell (:func:`_judge_cell`), the cells in parallel; the judged results.
+
+    The sphere grid's sensitivity runs first, on all workers: its section is in that cell's
+    page. Drawing a cell's 15 figures is most of a judge's time, one process per cell.
+    """
+    from joblib import Parallel, delayed
+
+    if "sphere-volume" in results:
+        result = results["sphere-volume"]
+        folder = out / result.cell.name
+        result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, n_jobs)
+    judged = Parallel(n_jobs=n_jobs)(
+        delayed(_judge_cell)(result, settings, wanted, out) for result in results.values()
+    )
+    return {result.cell.name: result for result in judged}
+
+
+def _judge_cell(result, settings, wanted, out):
+    """Verdicts, figures and diagnostics of one cell, and its CELL.md; the judged result."""
     from .rules_v2 import evaluate_v2
     from .rules_v3 import evaluate_v3
 
@@ -208,8 +226,6 @@ def _judge_cell(result, settings, wanted, out, n_jobs=1):
     result.findings_v3 = evaluate_v3(result.paper, result.controls)
     result.figures = make_figures(folder, runs, settings, result.fine, result.controls)
     result.diagnostics = diagnostics(runs, settings.seeds)
-    if result.cell.name == "sphere-volume":
-        result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, n_jobs)
     with atomic_path(folder / "summary.csv") as tmp:
         summary_table(result.paper, result.fine).to_csv(
             tmp, index=False, float_format="%.6g", lineterminator="\n"
@@ -231,6 +247,7 @@ def _judge_cell(result, settings, wanted, out, n_jobs=1):
     )
     with atomic_path(folder / "CELL.md") as tmp:
         tmp.write_text(report_text(data))
+    return result
 
 
 def _placement(out, results):
@@ -341,9 +358,8 @@ def main(argv=None):
     progress, results = sys.stderr.isatty(), {}
     common = dict(testing_data=testing, cache_dir=args.cache_dir)
     for cell in settings.cells:
-        result = run_cell_sweeps(cell, settings, out, args.jobs, progress, **common)
-        _judge_cell(result, settings, wanted, out, args.jobs)
-        results[cell.name] = result
+        results[cell.name] = run_cell_sweeps(cell, settings, out, args.jobs, progress, **common)
+    results = _judge_cells(results, settings, wanted, out, args.jobs)
     best = best_cell(results)
     variants = []
     if not settings.quick:
