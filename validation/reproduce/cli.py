@@ -200,7 +200,8 @@ def _judge_cells(results, settings, wanted, out, n_jobs):
     """Judge every cell (:func:`_judge_cell`), the cells in parallel; the judged results.
 
     The sphere grid's sensitivity runs first, on all workers: its section is in that cell's
-    page. Drawing a cell's 15 figures is most of a judge's time, one process per cell.
+    page. Drawing a cell's 15 figures is most of a judge's time, one process per cell; a
+    ``--quick`` run draws the first cell's only (every kind of figure, once).
     """
     from joblib import Parallel, delayed
 
@@ -209,13 +210,15 @@ def _judge_cells(results, settings, wanted, out, n_jobs):
         folder = out / result.cell.name
         result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, n_jobs)
     judged = Parallel(n_jobs=n_jobs)(
-        delayed(_judge_cell)(result, settings, wanted, out) for result in results.values()
+        delayed(_judge_cell)(result, settings, wanted, out, draw=k == 0 or not settings.quick)
+        for k, result in enumerate(results.values())
     )
     return {result.cell.name: result for result in judged}
 
 
-def _judge_cell(result, settings, wanted, out):
-    """Verdicts, figures and diagnostics of one cell, and its CELL.md; the judged result."""
+def _judge_cell(result, settings, wanted, out, draw=True):
+    """Verdicts, figures (if ``draw``) and diagnostics of one cell, and its CELL.md; the
+    judged result."""
     from .rules_v2 import evaluate_v2
     from .rules_v3 import evaluate_v3
 
@@ -224,7 +227,8 @@ def _judge_cell(result, settings, wanted, out):
     result.findings = evaluate(result.paper)
     result.findings_v2 = evaluate_v2(result.paper, result.controls)
     result.findings_v3 = evaluate_v3(result.paper, result.controls)
-    result.figures = make_figures(folder, runs, settings, result.fine, result.controls)
+    if draw:
+        result.figures = make_figures(folder, runs, settings, result.fine, result.controls)
     result.diagnostics = diagnostics(runs, settings.seeds)
     with atomic_path(folder / "summary.csv") as tmp:
         summary_table(result.paper, result.fine).to_csv(
