@@ -104,7 +104,8 @@ def _parser():
     parser.add_argument(
         "--quick",
         action="store_true",
-        help="a smoke run: 2 seeds, 500 positions, 12 mm grids, tiny sets (not evidence)",
+        help="a smoke run: 2 seeds, 500 positions, 12 mm grids, tiny sets, the first cell's "
+        "figures only (not evidence)",
     )
     parser.add_argument(
         "--out",
