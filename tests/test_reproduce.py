@@ -97,8 +97,8 @@ def reports(tmp_path_factory, committed_report):
     default folder of a quick run. The second gets a copy of the first's results files and
     manifest only, in a folder given with ``--out``: it reuses every row and writes every
     page, table and figure anew (each figure's reconstructions recomputed and checked
-    against their rows), in one process where the first drew them in worker processes.
-    Returns both folders, the first's standard error and the second's report text.
+    against their rows). Returns both folders, the first's standard error and the second's
+    report text.
     """
     cwd = tmp_path_factory.mktemp("cwd")
     err = io.StringIO()
@@ -113,7 +113,7 @@ def reports(tmp_path_factory, committed_report):
                 (second / path.relative_to(first)).parent.mkdir(parents=True, exist_ok=True)
                 shutil.copy2(path, second / path.relative_to(first))
         shutil.copy2(first / MANIFEST, second / MANIFEST)
-        assert rp.main(["--quick", "--jobs", "1", "--out", str(second)]) == 0
+        assert rp.main([*QUICK, "--out", str(second)]) == 0
     return [first, second], err.getvalue()
 
 
