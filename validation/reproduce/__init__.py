@@ -14,9 +14,10 @@ decision rules (stated before any number), one verdict per finding, tables and f
 
 Presets: the full run uses 10 seeds (20 in the realistic cortex + thalamus cell's
 specificity tables), the default head models (about 3000 positions in the sphere's volume
-grid) and a 10 dB step of the fine map; ``--quick`` uses 2 seeds, about 1000 positions, 9 mm
-grids where a head's spacing is fixed, a 60 dB step, and the baselines of the main condition
-only. ``--seeds``, ``--n-positions`` and ``--fine-step`` override the preset.
+grid) and a 10 dB step of the fine map; ``--quick`` uses 2 seeds, 500 positions, 12 mm
+grids where a head's spacing is fixed, a 60 dB step, the baselines of the main condition
+only, and the first cell's figures only. ``--seeds``, ``--n-positions`` and
+``--fine-step`` override the preset.
 
 Output folder. Only the full preset writes the committed report, ``validation/report/``
 (its default ``DIR``). Any other run (``--quick``, or an override that changes the

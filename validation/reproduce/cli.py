@@ -104,7 +104,8 @@ def _parser():
     parser.add_argument(
         "--quick",
         action="store_true",
-        help="a smoke run: 2 seeds, 500 positions, 12 mm grids, tiny sets (not evidence)",
+        help="a smoke run: 2 seeds, 500 positions, 12 mm grids, tiny sets, the first cell's "
+        "figures only (not evidence)",
     )
     parser.add_argument(
         "--out",
@@ -196,8 +197,29 @@ def output_folder(settings, out=None):
 # --------------------------------------------------------------------------- main
 
 
-def _judge_cell(result, settings, wanted, out, n_jobs=1):
-    """Verdicts, figures, diagnostics (and the sphere grid's sensitivity) of one cell."""
+def _judge_cells(results, settings, wanted, out, n_jobs):
+    """Judge every cell (:func:`_judge_cell`), the cells in parallel; the judged results.
+
+    The sphere grid's sensitivity runs first, on all workers: its section is in that cell's
+    page. Drawing a cell's 15 figures is most of a judge's time, one process per cell; a
+    ``--quick`` run draws the first cell's only (every kind of figure, once).
+    """
+    from joblib import Parallel, delayed
+
+    if "sphere-volume" in results:
+        result = results["sphere-volume"]
+        folder = out / result.cell.name
+        result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, n_jobs)
+    judged = Parallel(n_jobs=n_jobs)(
+        delayed(_judge_cell)(result, settings, wanted, out, draw=k == 0 or not settings.quick)
+        for k, result in enumerate(results.values())
+    )
+    return {result.cell.name: result for result in judged}
+
+
+def _judge_cell(result, settings, wanted, out, draw=True):
+    """Verdicts, figures (if ``draw``) and diagnostics of one cell, and its CELL.md; the
+    judged result."""
     from .rules_v2 import evaluate_v2
     from .rules_v3 import evaluate_v3
 
@@ -206,10 +228,9 @@ def _judge_cell(result, settings, wanted, out, n_jobs=1):
     result.findings = evaluate(result.paper)
     result.findings_v2 = evaluate_v2(result.paper, result.controls)
     result.findings_v3 = evaluate_v3(result.paper, result.controls)
-    result.figures = make_figures(folder, runs, settings, result.fine, result.controls)
+    if draw:
+        result.figures = make_figures(folder, runs, settings, result.fine, result.controls)
     result.diagnostics = diagnostics(runs, settings.seeds)
-    if result.cell.name == "sphere-volume":
-        result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, n_jobs)
     with atomic_path(folder / "summary.csv") as tmp:
         summary_table(result.paper, result.fine).to_csv(
             tmp, index=False, float_format="%.6g", lineterminator="\n"
@@ -231,6 +252,7 @@ def _judge_cell(result, settings, wanted, out, n_jobs=1):
     )
     with atomic_path(folder / "CELL.md") as tmp:
         tmp.write_text(report_text(data))
+    return result
 
 
 def _placement(out, results):
@@ -341,9 +363,8 @@ def main(argv=None):
     progress, results = sys.stderr.isatty(), {}
     common = dict(testing_data=testing, cache_dir=args.cache_dir)
     for cell in settings.cells:
-        result = run_cell_sweeps(cell, settings, out, args.jobs, progress, **common)
-        _judge_cell(result, settings, wanted, out, args.jobs)
-        results[cell.name] = result
+        results[cell.name] = run_cell_sweeps(cell, settings, out, args.jobs, progress, **common)
+    results = _judge_cells(results, settings, wanted, out, args.jobs)
     best = best_cell(results)
     variants = []
     if not settings.quick:

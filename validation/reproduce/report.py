@@ -346,6 +346,8 @@ def _tables_section(data):
 
 
 def _figures_section(figures, settings):
+    if not figures:
+        return ["## Figures", "", "Not drawn: a --quick run draws the first cell's only.", ""]
     lines = [
         "## Figures",
         "",
@@ -426,7 +428,7 @@ class ReportData:
         The sweep tables.
     findings : list of Finding
     figures : dict
-        From :func:`make_figures`.
+        From :func:`make_figures`; empty where a --quick run drew none.
     diagnostics : dict
         From :func:`diagnostics`.
     sensitivity : Sensitivity or None

@@ -209,7 +209,7 @@ def run_tuned(head_kwargs, seeds, path, n_jobs=1):
     path : Path
         The results file (read if present; the caller deletes stale ones).
     n_jobs : int
-        joblib workers, one noise level each.
+        joblib workers, one noise level and seed each.
 
     Returns
     -------
@@ -224,8 +224,10 @@ def run_tuned(head_kwargs, seeds, path, n_jobs=1):
     path = Path(path)
     if path.exists():
         return pd.read_csv(path)
-    groups = Parallel(n_jobs=n_jobs)(
-        delayed(_tuned_group)(head_kwargs, snr, range(seeds)) for snr in NOISE_LEVELS
+    groups = Parallel(n_jobs=n_jobs)(  # by seed: three noise levels keep one of 2 workers idle
+        delayed(_tuned_group)(head_kwargs, snr, [seed])
+        for snr in NOISE_LEVELS
+        for seed in range(seeds)
     )
     table = pd.DataFrame([row for rows in groups for row in rows])
     table = table.sort_values(

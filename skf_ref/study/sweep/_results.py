@@ -143,7 +143,7 @@ def _checked(frame: pd.DataFrame, out: Path, where: Callable[[int], str]) -> pd.
 
 
 class ResultsFile:
-    """A results file opened for a sweep: locked, checked, appended to one run at a time.
+    """A results file opened for a sweep: locked, checked, appended one batch of runs at a time.
 
     Use as a context manager. A second sweep on the same file fails at once with an
     :class:`~skf_ref.InputError` saying the file is in use; the lock is released on exit.
@@ -241,6 +241,8 @@ class ResultsFile:
         rows : sequence of dict
             One per run, with the same keys in the same order.
         """
+        if not rows:
+            return
         if _is_parquet(self.out):
             self.existing = pd.concat([self.existing, pd.DataFrame(rows)], ignore_index=True)
             with atomic_path(self.out) as tmp:
@@ -257,12 +259,12 @@ class ResultsFile:
             )
         if self._file_lock is None:  # the file is new: it is locked as it is created
             self._lock_file(os.O_WRONLY | os.O_APPEND | os.O_CREAT)
-        for _, row in frame.iterrows():
-            text = row.to_frame().T.to_csv(index=False, header=header, lineterminator="\n")
-            fd = os.open(self.out, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
-            try:
-                os.write(fd, text.encode())  # one whole line (with the header, the first time)
-                os.fsync(fd)
-            finally:
-                os.close(fd)
-            header = False
+        text = frame.to_csv(index=False, header=header, lineterminator="\n")
+        fd = os.open(self.out, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        try:
+            # whole lines (with the header, the first time), synced once per batch: an
+            # interruption tears at most the last line, which the next run cuts off
+            os.write(fd, text.encode())
+            os.fsync(fd)
+        finally:
+            os.close(fd)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import functools
 import itertools
 import logging
 import math
@@ -12,6 +13,7 @@ import os
 import signal
 import sys
 import warnings
+import weakref
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -24,9 +26,11 @@ from ._grid import AXES, GROUP, check_grid, row_key, smoother_label
 from ._results import ResultsFile, read_results
 
 if TYPE_CHECKING:
+    import numpy as np
     import pandas as pd
+    from numpy.typing import NDArray
 
-    from ...method._result import Reconstruction
+    from ...method import SpectralBasis, StateSpaceModel
     from ..head import HeadModel
     from ..scenario import Truth
 
@@ -101,12 +105,14 @@ def _sources_label(sources: Sequence[str]) -> str:
     return "+".join(sources)
 
 
-def _region_values(rec: Reconstruction, head: HeadModel, truth: Truth) -> dict[str, float]:
-    """Raw region maxima (standardized amplitude) at the two peaks, for the controls, and
-    the height (m, head coordinates) of the global maximum at each peak."""
+def _region_values(
+    amplitude: NDArray[np.float64], head: HeadModel, truth: Truth
+) -> dict[str, float]:
+    """Raw region maxima (standardized amplitude, shape (n_positions, n_times)) at the two
+    peaks, for the controls, and the height (m, head coordinates) of the global maximum at
+    each peak."""
     from ..regions import region_time_course
 
-    amplitude = rec.amplitude(3)
     i_deep, i_sup = truth.peak_indices
     deep = region_time_course(amplitude, head.positions, truth.positions[0])
     sup = region_time_course(amplitude, head.positions, truth.positions[1])
@@ -119,6 +125,29 @@ def _region_values(rec: Reconstruction, head: HeadModel, truth: Truth) -> dict[s
         "max_height_at_deep_peak": float(head.positions[amplitude[:, i_deep].argmax(), 2]),
         "max_height_at_superficial_peak": float(head.positions[amplitude[:, i_sup].argmax(), 2]),
     }
+
+
+@functools.cache  # metadata lookups take milliseconds, and every task records them
+def _package_columns() -> tuple[tuple[str, str], ...]:
+    """The package versions of a row, ``("numpy_version", "2.4.6")``..., this process's."""
+    return tuple((f"{name}_version", v) for name, v in package_versions().items())
+
+
+#: Each head's spectral bases by noise level, kept while the head lives: a worker prepares
+#: many groups of the same head and noise (priors differ, the SVD of L / sigma does not).
+_BASES: weakref.WeakKeyDictionary[HeadModel, dict[float, SpectralBasis]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def _basis(head: HeadModel, sigma: float, model: StateSpaceModel) -> SpectralBasis:
+    """The whitening and SVD of ``model``: the head's lead field and white noise of ``sigma``."""
+    from ...method import SpectralBasis
+
+    bases = _BASES.setdefault(head, {})
+    if sigma not in bases:
+        bases[sigma] = SpectralBasis(model.L, model.R)
+    return bases[sigma]
 
 
 def run_on_head(
@@ -163,9 +192,7 @@ def run_on_head(
     L, T = head.leadfield, len(scenario.times)
     model = None
     rows = []
-    versions: dict[str, str | int] = {
-        f"{name}_version": v for name, v in package_versions().items()
-    }
+    versions: dict[str, str | int] = dict(_package_columns())
     blas = blas_threads()
     versions["blas"] = " ".join(f"{b['library']}-{b['version']}" for b in blas) or "none"
     versions["blas_threads"] = max((b["threads"] for b in blas), default=1)
@@ -174,11 +201,12 @@ def run_on_head(
         if model is None:  # sigma depends on the noise level only, not on the seed
             theta0, q = priors_from_snr(L, sim.sigma, pm_snr_db, ep_snr_db, T)
             state_space = StateSpaceModel.create(L, noise_std=sim.sigma, theta0=theta0, q=q)
-            model = SpectralModel(state_space, T)
+            model = SpectralModel(state_space, T, _basis(head, sim.sigma, state_space))
         for exponent, smoother, run_seed in runs:
             if run_seed != seed:
                 continue
             rec = model.apply(sim.Y, exponent, smoother)
+            amplitude = rec.amplitude(3)
             params = dict(
                 n_positions=head.n_positions,
                 montage=head.montage,
@@ -198,8 +226,8 @@ def run_on_head(
                 sigma=sim.sigma,
                 log_likelihood=rec.log_likelihood,
             )
-            summary = metrics.summarize(rec, head, sim.truth)
-            rows.append(params | summary | _region_values(rec, head, sim.truth) | versions)
+            summary = metrics.summarize(amplitude, head, sim.truth)
+            rows.append(params | summary | _region_values(amplitude, head, sim.truth) | versions)
     return rows
 
 

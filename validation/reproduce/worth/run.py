@@ -62,6 +62,7 @@ class Worth:
     scored_runs: dict = field(default_factory=dict, repr=False)
     lcmv: pd.DataFrame = field(default=None, repr=False)
     irmxne: pd.DataFrame = field(default=None, repr=False)
+    summarized: dict = field(default_factory=dict, repr=False)  # results file -> its summary
 
     def label(self, key):
         """A method's label in tables."""
@@ -184,27 +185,33 @@ def _phase_b(study, sizes, worth, folder):
 
 
 def _summaries(worth, folder, keys, designs):
-    """Thresholds from the choice set, summaries of both sets, for every linear method."""
+    """Thresholds from the choice set, summaries of both sets, for every linear method.
+
+    Each results file is read and summarized once (``worth.summarized``): the second call,
+    after phase B, adds only phase B's files.
+    """
     from .summary import read_runs, summarize, thresholds
 
     parts = []
     for key in keys:
         for design in designs:
-            choice_path = run_file(folder, "choice", design, key)
-            if not choice_path.exists():
+            if not run_file(folder, "choice", design, key).exists():
                 continue
-            choice = read_runs(choice_path)
-            levels = thresholds(choice["nulls"])
-            worth.thresholds[key, design] = levels
-            for set_name in SETS:
+            for set_name in SETS:  # "choice" first: its nulls set the thresholds
                 path = run_file(folder, set_name, design, key)
                 if not path.exists():
                     continue
-                runs = choice if set_name == "choice" else read_runs(path)
-                if set_name == "scored" and design == "D1":
-                    worth.scored_runs[key] = runs
-                summary = summarize(runs, levels)
-                parts.append(summary.assign(method=key, design=design, set=set_name))
+                if path not in worth.summarized:
+                    runs = read_runs(path)
+                    if set_name == "choice":
+                        worth.thresholds[key, design] = thresholds(runs["nulls"])
+                    if set_name == "scored" and design == "D1":
+                        worth.scored_runs[key] = runs
+                    summary = summarize(runs, worth.thresholds[key, design])
+                    worth.summarized[path] = summary.assign(
+                        method=key, design=design, set=set_name
+                    )
+                parts.append(worth.summarized[path])
     return pd.concat(parts, ignore_index=True)
 
 
