@@ -13,19 +13,23 @@ __all__ = ["NOISE_FREE", "cell", "lookup", "markdown_table", "percent", "snr_nam
 NOISE_FREE = np.inf
 
 
+_KEY = ("method", "quantity", "snr_db", "design", "set")
+_index: list = [None, 0, {}]  # the last summaries table, its length, {key: its first row}
+
+
 def lookup(worth, key, quantity, snr, design="D1", set_name="scored"):
     """(value, low, high, n) of a summary row, or NaNs when it is missing."""
     s = worth.summaries
-    rows = s[
-        (s["method"] == key)
-        & (s["quantity"] == quantity)
-        & (s["snr_db"] == snr)
-        & (s["design"] == design)
-        & (s["set"] == set_name)
-    ]
-    if rows.empty:
+    if _index[0] is not s or _index[1] != len(s):
+        # the report looks up about 1500 cells: index the table once, not a filter a cell
+        first = {}
+        for i, row in enumerate(zip(*(s[column].tolist() for column in _KEY), strict=True)):
+            first.setdefault(row, i)
+        _index[:] = [s, len(s), first]
+    i = _index[2].get((key, quantity, snr, design, set_name))
+    if i is None:
         return np.nan, np.nan, np.nan, 0
-    row = rows.iloc[0]
+    row = s.iloc[i]
     return float(row["value"]), float(row["low"]), float(row["high"]), int(row["n"])
 
 
