@@ -52,10 +52,7 @@ def _operator(evoked, forward, noise_cov, noise_std, snrs, types, verbose):
         check_choice("noise_cov", noise_cov, ("baseline",))
         if noise_std is None:
             noise_cov = baseline_covariance(evoked, **types)
-    snrs = {
-        name: default if snrs[name] is None else snrs[name]
-        for name, default in (("pm_snr_db", 0.0), ("ep_snr_db", 0.0))
-    }
+    snrs = {name: value for name, value in snrs.items() if value is not None}  # or its defaults
     return make_skf_operator(
         evoked.info, forward, noise_cov, noise_std=noise_std, **snrs, **types, verbose=verbose
     )
