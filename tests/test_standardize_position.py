@@ -343,3 +343,37 @@ def test_components_held_one_at_a_time_agree_with_the_dense_path(exponent):
     dense = reconstruct(L, Y, **settings, method="dense")
     for name in ("z", "weights"):
         assert relative(getattr(spectral, name), getattr(dense, name)) < 1e-10, name
+
+
+@pytest.mark.parametrize("smoother", [None, "rts-state", "rts-smoothed-weights"])
+def test_a_model_applied_again_keeps_its_block_powers(monkeypatch, smoother):
+    # more positions than a chunk and more steps than a chunk before the steady state: from
+    # the second data set on, the powers of the transient blocks are kept, not recomputed
+    from skf_ref.method import SpectralModel, StateSpaceModel
+    from skf_ref.method._paths import block_weights
+
+    rng = np.random.default_rng(31)
+    L = free_lead_field(rng, 8, 300) * np.logspace(0, 1.5, 8)[:, None]
+    data = [rng.standard_normal((8, 200)) for _ in range(3)]
+    model = StateSpaceModel.create(L, noise_std=1.0, theta0=1e-2, q=1e-3)
+    kwargs = dict(standardize="position", n_orient=3)
+
+    def fresh(Y, name):
+        return getattr(SpectralModel(model, n_times=200).apply(Y, 0.5, smoother, **kwargs), name)
+
+    prepared = SpectralModel(model, n_times=200)
+    standardization = prepared.standardization(
+        0.5, block=3, smoothed=smoother == "rts-smoothed-weights"
+    )
+    for k, Y in enumerate(data):
+        rec = prepared.apply(Y, 0.5, smoother, **kwargs)
+        for name in ("z", "weights"):
+            assert relative(getattr(rec, name), fresh(Y, name)) <= 1e-13, (k, name)
+        assert standardization.kept == (k > 0)
+    monkeypatch.setattr(block_weights, "CACHE_BYTES", 0)
+    uncached = SpectralModel(model, n_times=200)
+    for Y in data[:2]:
+        uncached.apply(Y, 0.5, smoother, **kwargs).z
+    assert not uncached.standardization(
+        0.5, block=3, smoothed=smoother == "rts-smoothed-weights"
+    ).kept

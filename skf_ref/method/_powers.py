@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._sym3_compiled import apply_power, power, use_compiled
 
-__all__ = ["RCOND", "SYM3_ENTRIES", "block_power", "sym3_apply", "sym3_power"]
+__all__ = ["RCOND", "SYM3_ENTRIES", "block_power", "sym3_apply", "sym3_power", "sym3_times"]
 
 _Array = NDArray[np.float64]
 
@@ -193,18 +193,25 @@ def sym3_apply(
     z = np.empty_like(flat_v)
     m = use_compiled(n_blocks or b.shape[1], exponent)
     if m is None:
-        _times(sym3_power(b, exponent), flat_v, z)
+        sym3_times(sym3_power(b, exponent), flat_v, z)
     else:
         apply_power(np.ascontiguousarray(b), np.ascontiguousarray(flat_v), m, RCOND, z)
         far = ~np.isfinite(z[0])  # left to LAPACK
         if far.any():
-            z[:, far] = _times(_by_lapack(b[:, far], exponent, None), flat_v[:, far])
+            z[:, far] = sym3_times(_by_lapack(b[:, far], exponent, None), flat_v[:, far])
     result[...] = z.reshape(v.shape)
     return result
 
 
-def _times(F: _Array, v: _Array, out: _Array | None = None) -> _Array:
-    """``F v`` for the entries ``F`` (6, N) of symmetric blocks and vectors ``v`` (3, N)."""
+def sym3_times(F: _Array, v: _Array, out: _Array | None = None) -> _Array:
+    """``F v`` for the entries ``F`` (6, ...) of symmetric blocks and vectors ``v`` (3, ...).
+
+    Examples
+    --------
+    >>> F = np.array([2.0, 1.0, 0.0, 2.0, 0.0, 1.0])  # [[2, 1, 0], [1, 2, 0], [0, 0, 1]]
+    >>> sym3_times(F, np.array([1.0, 0.0, 3.0])).tolist()
+    [2.0, 1.0, 3.0]
+    """
     out = np.empty_like(v) if out is None else out
     for i, (k0, k1, k2) in enumerate(((0, 1, 2), (1, 3, 4), (2, 4, 5))):
         np.multiply(F[k0], v[0], out=out[i])

@@ -27,6 +27,14 @@ diagonal entry (a sum of nonnegative terms) by at most ``STEADY_RTOL`` relative 
 off-diagonal one by at most ``STEADY_RTOL (b_aa b_bb)^(1/2)`` (Cauchy-Schwarz): the block
 moves by ``STEADY_RTOL`` relative to its norm, as the steady state's weights do.
 
+A standardization applied to a second data set keeps ``B_t(i)^(-alpha)`` of the steps
+before the steady state (six numbers a position and step) when they take at most
+:data:`~.weights.CACHE_BYTES`, as the column form keeps its weights: every later data set
+then costs the products ``V_i u_t`` and one 3 x 3 product a block, not a power. The kept
+powers are computed in chunks of steps from the first, as an application whose tiles start
+there computes them: kept and computed estimates agree to rounding (and, for tiles that
+start later, within the held rule's ``STEADY_RTOL``, as computed ones do among themselves).
+
 :class:`BlockStandardization` has the methods of the column form's
 :class:`~.weights.Standardization`, which :class:`~.spectral_rows.SpectralRows` calls; its
 rows come in whole positions (``align = 3``).
@@ -38,9 +46,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .._powers import SYM3_ENTRIES, sym3_apply, sym3_power
+from ..._utils.threads import map_threads
+from .._powers import SYM3_ENTRIES, sym3_apply, sym3_power, sym3_times
 from . import tiles
 from .recursions import STEADY_RTOL
+from .weights import CACHE_BYTES
 
 __all__ = ["BlockStandardization"]
 
@@ -80,8 +90,8 @@ class BlockStandardization:
         self.steady, self.n_times = steady, n_times
         self._held: Any = None  # (F V, diag F) of the steady state
         self._projector: Any = None
+        self._cache: Any = None  # B_t(i)^(-alpha) before steady: (6, n_positions, steady)
         self.applications = 0  # data sets this standardization served
-        self.kept = False  # the column form keeps its transient weights; blocks do not
         # the blocks of a whole output: the compiled closed form pays off on many of them
         self._jobs = len(V) // 3 * min(steady, n_times)
         self._pairs = threading.local()  # each worker's last rows and their products
@@ -94,6 +104,12 @@ class BlockStandardization:
     def held(self) -> bool:
         """bool : Whether the recording reaches the steady state."""
         return self.steady < self.n_times
+
+    @property
+    def kept(self) -> bool:
+        """bool : Whether the powers of the steps before ``steady`` are kept
+        (:data:`~.weights.CACHE_BYTES`)."""
+        return self._cache is not None
 
     def _blocks(self, rows: slice, times: slice, tile: Any = None) -> _Array:
         """The entries ``b_ab`` (6, n_positions, n_steps) of the blocks at ``rows`` and
@@ -149,14 +165,34 @@ class BlockStandardization:
             held_basis = np.einsum("pij,pjr->pir", full, self.V.reshape(-1, 3, r))
             diagonal = F[list(_DIAGONAL)].T.reshape(n)
             self._held = (held_basis.reshape(n, r), diagonal)
+        n_positions, S = len(self.V) // 3, min(self.steady, self.n_times)
+        if (
+            self._cache is None
+            and self.applications > 1
+            and 0 < 48 * n_positions * S <= CACHE_BYTES
+        ):
+            cache = np.empty((6, n_positions, S))
+
+            def fill(chunk: slice) -> None:  # the chunks an application computes
+                where = slice(chunk.start // 3, chunk.stop // 3)
+                for steps in tiles.slices(0, S, _CHUNK_STEPS):
+                    b = self._blocks(chunk, steps, tile=(chunk.start, chunk.stop))
+                    cache[:, where, steps] = sym3_power(b, self.exponent, n_blocks=self._jobs)
+
+            for _ in map_threads(fill, tiles.slices(0, len(self.V), 3 * _CHUNK_POSITIONS)):
+                pass
+            self._cache = cache
 
     def transient(self, rows: slice, times: slice, out: _Array | None = None) -> _Array:
         """The diagonal of ``W_t^(alpha)`` at ``rows`` and ``times`` (steps before
         ``steady``): (n_rows, n_steps)."""
         out = np.empty((rows.stop - rows.start, times.stop - times.start)) if out is None else out
         for steps in tiles.slices(times.start, times.stop, _CHUNK_STEPS):
-            b = self._blocks(rows, steps, (rows.start, rows.stop))
-            F = sym3_power(b, self.exponent, n_blocks=self._jobs)
+            if self._cache is not None:
+                F = self._cache[:, rows.start // 3 : rows.stop // 3, steps]
+            else:
+                b = self._blocks(rows, steps, (rows.start, rows.stop))
+                F = sym3_power(b, self.exponent, n_blocks=self._jobs)
             where = out[:, steps.start - times.start : steps.stop - times.start]
             _scatter(where, F[list(_DIAGONAL)])
         return out
@@ -182,8 +218,13 @@ class BlockStandardization:
                     # (V u_t)[3i + a] as v[a, i, t]: one product per orientation
                     Vi = self.V[chunk].reshape(-1, 3, self.V.shape[1]).transpose(1, 0, 2)
                     v = np.matmul(Vi, u[steps].T)
-                    b = self._blocks(chunk, steps, tile=(rows.start, rows.stop))
-                    z = sym3_apply(b, v, self.exponent, n_blocks=self._jobs)
+                    if self._cache is not None:  # the kept powers: one product a block
+                        z = sym3_times(
+                            self._cache[:, chunk.start // 3 : chunk.stop // 3, steps], v
+                        )
+                    else:
+                        b = self._blocks(chunk, steps, tile=(rows.start, rows.stop))
+                        z = sym3_apply(b, v, self.exponent, n_blocks=self._jobs)
                     where = slice(steps.start - times.start, steps.stop - times.start)
                     _scatter(out[chunk.start - first : chunk.stop - first, where], z)
         if held:  # one product: z_t = (F V) u_t

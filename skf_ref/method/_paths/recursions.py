@@ -44,7 +44,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import signal
 
 __all__ = ["Recursions", "backward", "fixed_point", "recurrence"]
 
@@ -419,6 +418,8 @@ def recurrence(
     if constant and len(c) >= LFILTER_STEPS:
         decay = np.broadcast_to(decay, c.shape[1:])
         start = np.zeros(c.shape[1:]) if start is None else np.broadcast_to(start, c.shape[1:])
+        from scipy import signal  # here: importing it takes a second, most runs never need it
+
         for index in np.ndindex(c.shape[1:]):
             column = (slice(None), *index)
             # y_t = c_t + decay y_{t-1}: lfilter's direct form computes exactly this

@@ -114,6 +114,7 @@ class SpectralRows:
         elif smoother == "rts-smoothed-weights":
             assert smoothed is not None  # the caller gives it with this smoother
             self.smoothed_standardization, inverse_sigma = smoothed
+            self.smoothed_standardization.applications += 1  # kept from a second data set
             # Sigma_t^{-1/2} x^s_t = V xi^s_t / sigma_t^(1/2)         docs/model.md §3
             self.u_smoothed = self.xi_smoothed * np.sqrt(inverse_sigma)[:, None]
         self._delta: Any = None
