@@ -16,9 +16,9 @@ from pathlib import Path
 
 from skf_ref._utils.atomic_files import atomic_path
 
-from .baselines import baseline_files, describe, run_baselines
+from .baselines import baseline_files, baseline_jobs, describe, read_baselines
 from .cells import best_cell, result_files, run_cell_sweeps, run_variants
-from .figures import make_figures, save_source_placement
+from .figures import FIGURE_GROUPS, make_figures, save_source_placement
 from .overview import Overview, overview_text
 from .report import ReportData, report_text
 from .rules import evaluate
@@ -197,11 +197,34 @@ def output_folder(settings, out=None):
 # --------------------------------------------------------------------------- main
 
 
+def _sweep_cells(settings, out, n_jobs, progress, common):
+    """Every cell's sweeps (:func:`cells.run_cell_sweeps`): cell name -> CellResult.
+
+    A full run's cells each hold hundreds of tasks, run on all workers one cell after
+    another; a ``--quick`` run's hold a few small ones each, where a pool per sweep (five
+    a cell) costs more than the work: one cell per worker, each sweeping in its process.
+    """
+    from joblib import Parallel, delayed
+
+    if not settings.quick:
+        return {
+            cell.name: run_cell_sweeps(cell, settings, out, n_jobs, progress, **common)
+            for cell in settings.cells
+        }
+    swept = Parallel(n_jobs=n_jobs)(
+        delayed(run_cell_sweeps)(cell, settings, out, 1, False, **common)
+        for cell in settings.cells
+    )
+    return {result.cell.name: result for result in swept}
+
+
 def _judge_cells(results, settings, wanted, out, n_jobs):
-    """Judge every cell (:func:`_judge_cell`), the cells in parallel; the judged results.
+    """Judge every cell (:func:`_judge_cell`) and draw its figures, in parallel; write each
+    cell's CELL.md; the judged results.
 
     The sphere grid's sensitivity runs first, on all workers: its section is in that cell's
-    page. Drawing a cell's 15 figures is most of a judge's time, one process per cell; a
+    page. Drawing a cell's 15 figures is most of a judge's time: they are drawn in two jobs
+    (:data:`figures.FIGURE_GROUPS`), submitted first, beside the cells' verdicts. A
     ``--quick`` run draws the first cell's only (every kind of figure, once).
     """
     from joblib import Parallel, delayed
@@ -210,27 +233,51 @@ def _judge_cells(results, settings, wanted, out, n_jobs):
         result = results["sphere-volume"]
         folder = out / result.cell.name
         result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, n_jobs)
-    judged = Parallel(n_jobs=n_jobs)(
-        delayed(_judge_cell)(result, settings, wanted, out, draw=k == 0 or not settings.quick)
-        for k, result in enumerate(results.values())
-    )
-    return {result.cell.name: result for result in judged}
+    drawn = [r for k, r in enumerate(results.values()) if k == 0 or not settings.quick]
+    drawn_names = {result.cell.name for result in drawn}
+    jobs = [
+        delayed(_draw)(result, settings, out, names) for result in drawn for names in FIGURE_GROUPS
+    ]
+    jobs += [
+        delayed(_judge_cell)(result, settings, None if name in drawn_names else (wanted, out))
+        for name, result in results.items()
+    ]
+    done = Parallel(n_jobs=n_jobs)(jobs)
+    judged = {result.cell.name: result for result in done[len(drawn) * len(FIGURE_GROUPS) :]}
+    for k, result in enumerate(drawn):  # their pages once their figures are drawn
+        figures = done[k * len(FIGURE_GROUPS) : (k + 1) * len(FIGURE_GROUPS)]
+        result = judged[result.cell.name]
+        result.figures = {name: files for group in figures for name, files in group.items()}
+        _write_cell(result, settings, wanted, out)
+    return judged
 
 
-def _judge_cell(result, settings, wanted, out, draw=True):
-    """Verdicts, figures (if ``draw``) and diagnostics of one cell, and its CELL.md; the
-    judged result."""
+def _draw(result, settings, out, names):
+    """A group of a cell's figures (:func:`figures.make_figures`); their file names."""
+    runs = CheckedRuns(result.head, result.paper)
+    folder = out / result.cell.name
+    return make_figures(folder, runs, settings, result.fine, result.controls, names)
+
+
+def _judge_cell(result, settings, page=None):
+    """Verdicts and diagnostics of one cell; the judged result. ``page``: (manifest,
+    report folder) to write its page too (a cell without figures)."""
     from .rules_v2 import evaluate_v2
     from .rules_v3 import evaluate_v3
 
-    folder = out / result.cell.name
     runs = CheckedRuns(result.head, result.paper)
     result.findings = evaluate(result.paper)
     result.findings_v2 = evaluate_v2(result.paper, result.controls)
     result.findings_v3 = evaluate_v3(result.paper, result.controls)
-    if draw:
-        result.figures = make_figures(folder, runs, settings, result.fine, result.controls)
     result.diagnostics = diagnostics(runs, settings.seeds)
+    if page is not None:
+        _write_cell(result, settings, *page)
+    return result
+
+
+def _write_cell(result, settings, wanted, out):
+    """A judged cell's summary.csv and CELL.md."""
+    folder = out / result.cell.name
     with atomic_path(folder / "summary.csv") as tmp:
         summary_table(result.paper, result.fine).to_csv(
             tmp, index=False, float_format="%.6g", lineterminator="\n"
@@ -252,7 +299,6 @@ def _judge_cell(result, settings, wanted, out, draw=True):
     )
     with atomic_path(folder / "CELL.md") as tmp:
         tmp.write_text(report_text(data))
-    return result
 
 
 def _placement(out, results):
@@ -277,8 +323,42 @@ def _generated(elapsed, jobs, computed, total):
     )
 
 
-def _specificity(settings, out, n_jobs, results, common):
-    """Run the baselines, check them against the sweeps, apply the rule, draw the figures.
+def _baselines_and_worth(settings, out, args, results, common):
+    """The baselines beside MNE's methods and the study of the SKF's worth (v2), on one pool.
+
+    The baselines' jobs (the longest first) and the worth study's first phase go to the
+    workers together; once the baselines' have finished the parent checks them and writes
+    their sections while the workers go on with the worth study's.
+
+    Returns
+    -------
+    headline, details : str
+        The baselines' sections (:func:`specificity_report.specificity_text`).
+    worth : Worth
+    text : str
+        The worth study's sections of REPORT.md.
+    """
+    from joblib import Parallel, delayed
+
+    from .worth.run import finish_worth, start_worth
+    from .worth.text import worth_text
+
+    baselines = baseline_jobs(settings, out, **common)
+    worth, phase_a = start_worth(settings, out, fresh=args.fresh, **common)
+    outputs = Parallel(n_jobs=args.jobs, return_as="generator")(
+        delayed(function)(*arguments) for function, *arguments in [*baselines, *phase_a]
+    )
+    for _ in baselines:
+        next(outputs)
+    headline, details = _specificity(settings, out, results)
+    for _ in outputs:
+        pass
+    worth = finish_worth(worth, args.jobs)
+    return headline, details, worth, worth_text(worth, out)
+
+
+def _specificity(settings, out, results):
+    """Check the baselines against the sweeps, apply the rule, draw the figures.
 
     Returns
     -------
@@ -288,7 +368,7 @@ def _specificity(settings, out, n_jobs, results, common):
     from . import specificity, specificity_report
     from .recommend import CHOICE_SEEDS
 
-    raw = run_baselines(settings, out, n_jobs, **common)
+    raw = read_baselines(settings, out)
     specificity.check_against_sweeps(raw, results)
     chosen = raw["seed"].isin(CHOICE_SEEDS)
     choice = specificity.recommendation(raw[chosen])
@@ -299,22 +379,6 @@ def _specificity(settings, out, n_jobs, results, common):
         table = specificity.scores(raw[~chosen])
         table.to_csv(tmp, index=False, float_format="%.6g", lineterminator="\n")
     return specificity_report.specificity_text(table, choice, settings, figures)
-
-
-def _worth(settings, out, args, common):
-    """The study of the SKF's worth (v2): run it, write its figures and headline files.
-
-    Returns
-    -------
-    worth : Worth
-    text : str
-        Its sections of REPORT.md.
-    """
-    from .worth.run import run_worth
-    from .worth.text import worth_text
-
-    worth = run_worth(settings, out, args.jobs, fresh=args.fresh, **common)
-    return worth, worth_text(worth, out)
 
 
 _NO_DATASET = (
@@ -360,18 +424,18 @@ def main(argv=None):
     if reason is not None:
         print(f"reproduce: deleted the previous results ({reason})", file=sys.stderr)
     before = sum(len(read_results(out / name)) for name in names)
-    progress, results = sys.stderr.isatty(), {}
+    progress = sys.stderr.isatty()
     common = dict(testing_data=testing, cache_dir=args.cache_dir)
-    for cell in settings.cells:
-        results[cell.name] = run_cell_sweeps(cell, settings, out, args.jobs, progress, **common)
+    results = _sweep_cells(settings, out, args.jobs, progress, common)
     results = _judge_cells(results, settings, wanted, out, args.jobs)
     best = best_cell(results)
     variants = []
     if not settings.quick:
         best_cell_ = next(cell for cell in settings.cells if cell.name == best)
         variants = run_variants(best_cell_, settings, out, args.jobs, progress, **common)
-    headline, details = _specificity(settings, out, args.jobs, results, common)
-    worth, worth_part = _worth(settings, out, args, common)
+    headline, details, worth, worth_part = _baselines_and_worth(
+        settings, out, args, results, common
+    )
     total = sum(len(read_results(out / name)) for name in names)
     skipped = None if testing is not None else "MNE's testing dataset was not given or found"
     data = Overview(

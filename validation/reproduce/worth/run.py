@@ -1,9 +1,10 @@
 """The study of the SKF's worth (v2), start to end: tasks, the rule, summaries, contrasts.
 
-:func:`run_worth` draws the sets, runs every task in parallel (phase A: the SKF candidates
-on the choice set, MNE's methods, LCMV, irMxNE's alpha), applies the rule, runs what depends
-on the default (phase B: the default and the best SKF setting scored, the temporal controls,
-irMxNE scored, the priors chosen by the data), and gathers everything a report needs in a
+:func:`start_worth` draws the sets and hands out the jobs of phase A (the SKF candidates
+on the choice set, MNE's methods, LCMV, irMxNE's alpha), which the caller runs in parallel
+beside its own; :func:`finish_worth` applies the rule, runs what depends on the default
+(phase B: the default and the best SKF setting scored, the temporal controls, irMxNE
+scored, the priors chosen by the data), and gathers everything a report needs in a
 :class:`Worth`. Results files live in ``out/worth/``; a rerun reuses them unless the study's
 manifest changed.
 """
@@ -35,7 +36,7 @@ from .design import (
 from .runs import irmxne_runs, lcmv_runs, run_irmxne, run_lcmv, run_tuned, tuned_runs
 from .tasks import run_file, run_linear
 
-__all__ = ["FOLDER", "Worth", "run_worth"]
+__all__ = ["FOLDER", "Worth", "finish_worth", "start_worth"]
 
 #: The study's folder in the report folder.
 FOLDER = "worth"
@@ -49,6 +50,8 @@ class Worth:
 
     study: object = field(repr=False)
     sizes: object
+    folder: Path = None  # the study's results folder (out/worth)
+    candidates: list = field(default_factory=list, repr=False)  # the SKF settings compared
     settings: dict = field(default_factory=dict, repr=False)  # key -> SKFSetting or Static
     named: dict = field(default_factory=dict)  # "N1".. -> key
     summaries: pd.DataFrame = field(default=None, repr=False)
@@ -311,8 +314,8 @@ def _write(worth, folder):
                                        float_format="%.6g", lineterminator="\n")  # fmt: skip
 
 
-def run_worth(settings, out, n_jobs=1, testing_data=None, cache_dir=None, fresh=False):
-    """Run (or resume) the whole study; return a :class:`Worth`.
+def start_worth(settings, out, testing_data=None, cache_dir=None, fresh=False):
+    """Prepare the study and its first phase: a :class:`Worth` and the jobs of phase A.
 
     Parameters
     ----------
@@ -321,10 +324,16 @@ def run_worth(settings, out, n_jobs=1, testing_data=None, cache_dir=None, fresh=
         head, else the sphere's cortex + thalamus).
     out : path-like
         The report folder.
-    n_jobs : int
     testing_data, cache_dir : path-like or None
     fresh : bool
         Recompute every run.
+
+    Returns
+    -------
+    worth : Worth
+    jobs : list of tuple
+        ``(function, *args)``, each writing its results files (resumable): run them on
+        any workers (beside other jobs), then :func:`finish_worth`.
     """
     from skf_ref.study.head import make_head
 
@@ -343,9 +352,15 @@ def run_worth(settings, out, n_jobs=1, testing_data=None, cache_dir=None, fresh=
         skf = [s for s in skf if s in NAMED.values()]
     folder = Path(out) / FOLDER
     _prepare(folder, _manifest(study, sizes, skf), fresh)
-    worth = Worth(study, sizes)
+    worth = Worth(study, sizes, folder=folder, candidates=skf)
     _register(worth, skf)
-    _parallel(_phase_a(study, sizes, skf, folder), n_jobs)
+    return worth, _phase_a(study, sizes, skf, folder)
+
+
+def finish_worth(worth, n_jobs=1):
+    """After phase A's jobs: apply the rule, run phase B on ``n_jobs`` workers, gather
+    every summary, contrast and window; write the study's tables; return ``worth``."""
+    study, sizes, folder, skf = worth.study, worth.sizes, worth.folder, worth.candidates
     keys = [s.key for s in [*skf, *_statics()]]
     worth.summaries = _summaries(worth, folder, keys, sizes.designs)
     _choose(worth, skf)
