@@ -218,38 +218,35 @@ def _sweep_cells(settings, out, n_jobs, progress, common):
     return {result.cell.name: result for result in swept}
 
 
-def _judge_cells(results, settings, wanted, out, n_jobs):
-    """Judge every cell (:func:`_judge_cell`) and draw its figures, in parallel; write each
-    cell's CELL.md; the judged results.
+def _cell_jobs(results, settings, wanted, out):
+    """The jobs that judge every cell (:func:`_judge_cell`) and draw its figures, and what
+    makes the judged results of their outputs.
 
-    The sphere grid's sensitivity runs first, on all workers: its section is in that cell's
-    page. Drawing a cell's 15 figures is most of a judge's time: they are drawn in two jobs
-    (:data:`figures.FIGURE_GROUPS`), submitted first, beside the cells' verdicts. A
-    ``--quick`` run draws the first cell's only (every kind of figure, once).
+    Drawing a cell's 15 figures is most of a judge's time: they are drawn in two jobs
+    (:data:`figures.FIGURE_GROUPS`), first, beside the cells' verdicts. A ``--quick`` run
+    draws the first cell's only (every kind of figure, once). A cell without figures writes
+    its page in its job; the others' are written by ``judged(outputs)``, which returns the
+    judged results (cell name -> CellResult).
     """
-    from joblib import Parallel, delayed
-
-    if "sphere-volume" in results:
-        result = results["sphere-volume"]
-        folder = out / result.cell.name
-        result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, n_jobs)
-    drawn = [r for k, r in enumerate(results.values()) if k == 0 or not settings.quick]
-    drawn_names = {result.cell.name for result in drawn}
+    drawn = [r.cell.name for k, r in enumerate(results.values()) if k == 0 or not settings.quick]
     jobs = [
-        delayed(_draw)(result, settings, out, names) for result in drawn for names in FIGURE_GROUPS
+        (_draw, results[name], settings, out, group) for name in drawn for group in FIGURE_GROUPS
     ]
     jobs += [
-        delayed(_judge_cell)(result, settings, None if name in drawn_names else (wanted, out))
+        (_judge_cell, result, settings, None if name in drawn else (wanted, out))
         for name, result in results.items()
     ]
-    done = Parallel(n_jobs=n_jobs)(jobs)
-    judged = {result.cell.name: result for result in done[len(drawn) * len(FIGURE_GROUPS) :]}
-    for k, result in enumerate(drawn):  # their pages once their figures are drawn
-        figures = done[k * len(FIGURE_GROUPS) : (k + 1) * len(FIGURE_GROUPS)]
-        result = judged[result.cell.name]
-        result.figures = {name: files for group in figures for name, files in group.items()}
-        _write_cell(result, settings, wanted, out)
-    return judged
+
+    def judged(outputs):
+        figures, verdicts = outputs[: -len(results)], outputs[-len(results) :]
+        cells = {result.cell.name: result for result in verdicts}
+        for k, name in enumerate(drawn):  # their pages once their figures are drawn
+            groups = figures[k * len(FIGURE_GROUPS) : (k + 1) * len(FIGURE_GROUPS)]
+            cells[name].figures = {key: files for group in groups for key, files in group.items()}
+            _write_cell(cells[name], settings, wanted, out)
+        return cells
+
+    return jobs, judged
 
 
 def _draw(result, settings, out, names):
@@ -323,38 +320,46 @@ def _generated(elapsed, jobs, computed, total):
     )
 
 
-def _baselines_and_worth(settings, out, args, results, common):
-    """The baselines beside MNE's methods and the study of the SKF's worth (v2), on one pool.
+def _after_the_sweeps(results, settings, wanted, out, args, common):
+    """Judge the cells, run the baselines and the worth study's first phase: one pool.
 
-    The baselines' jobs (the longest first) and the worth study's first phase go to the
-    workers together; once the baselines' have finished the parent checks them and writes
-    their sections while the workers go on with the worth study's.
+    The sphere grid's sensitivity runs first, on all workers (its section is in that cell's
+    page). Then the cells' figures and verdicts (:func:`_cell_jobs`), the baselines' jobs
+    (the longest first) and the worth study's first phase go to the workers together, in
+    that order: as the cells' and then the baselines' outputs come back the parent writes
+    the cells' pages and checks the baselines and writes their sections, while the workers
+    go on.
 
     Returns
     -------
+    judged : dict
+        Cell name -> the judged CellResult.
     headline, details : str
         The baselines' sections (:func:`specificity_report.specificity_text`).
     worth : Worth
-    text : str
-        The worth study's sections of REPORT.md.
+        Phase A's jobs done (:func:`worth.run.finish_worth` next).
     """
     from joblib import Parallel, delayed
 
-    from .worth.run import finish_worth, start_worth
-    from .worth.text import worth_text
+    from .worth.run import start_worth
 
+    if "sphere-volume" in results:
+        result = results["sphere-volume"]
+        folder = out / result.cell.name
+        result.sensitivity = run_sensitivity(result.head, settings.seeds, folder, args.jobs)
+    cells, judged = _cell_jobs(results, settings, wanted, out)
     baselines = baseline_jobs(settings, out, **common)
     worth, phase_a = start_worth(settings, out, fresh=args.fresh, **common)
     outputs = Parallel(n_jobs=args.jobs, return_as="generator")(
-        delayed(function)(*arguments) for function, *arguments in [*baselines, *phase_a]
+        delayed(function)(*arguments) for function, *arguments in [*cells, *baselines, *phase_a]
     )
+    results = judged([next(outputs) for _ in cells])
     for _ in baselines:
         next(outputs)
     headline, details = _specificity(settings, out, results)
     for _ in outputs:
         pass
-    worth = finish_worth(worth, args.jobs)
-    return headline, details, worth, worth_text(worth, out)
+    return results, headline, details, worth
 
 
 def _specificity(settings, out, results):
@@ -405,6 +410,9 @@ def main(argv=None):
     from skf_ref.study.head import find_testing_data
     from skf_ref.study.sweep import read_results
 
+    from .worth.run import finish_worth
+    from .worth.text import worth_text, write_headline
+
     start = time.perf_counter()
     try:
         args = _parser().parse_args(argv)
@@ -427,15 +435,16 @@ def main(argv=None):
     progress = sys.stderr.isatty()
     common = dict(testing_data=testing, cache_dir=args.cache_dir)
     results = _sweep_cells(settings, out, args.jobs, progress, common)
-    results = _judge_cells(results, settings, wanted, out, args.jobs)
+    results, headline, details, worth = _after_the_sweeps(
+        results, settings, wanted, out, args, common
+    )
     best = best_cell(results)
     variants = []
     if not settings.quick:
         best_cell_ = next(cell for cell in settings.cells if cell.name == best)
         variants = run_variants(best_cell_, settings, out, args.jobs, progress, **common)
-    headline, details, worth, worth_part = _baselines_and_worth(
-        settings, out, args, results, common
-    )
+    worth = finish_worth(worth, args.jobs)
+    worth_part = worth_text(worth, out)
     total = sum(len(read_results(out / name)) for name in names)
     skipped = None if testing is not None else "MNE's testing dataset was not given or found"
     data = Overview(
@@ -456,8 +465,6 @@ def main(argv=None):
     rest = f"{before_rules}\n{worth_part}\n{headline}\n{rules}"
     with atomic_path(out / "REPORT.md") as tmp:
         tmp.write_text(f"{title}\n\n{generated}\n{rest}")
-    from .worth.text import write_headline
-
     write_headline(worth, out, rest, elapsed)
     for cell in settings.cells:
         result = results[cell.name]
