@@ -208,8 +208,8 @@ def sym3_times(F: _Array, v: _Array, out: _Array | None = None) -> _Array:
 
     Examples
     --------
-    >>> F = np.array([2.0, 1.0, 0.0, 2.0, 0.0, 1.0])  # [[2, 1, 0], [1, 2, 0], [0, 0, 1]]
-    >>> sym3_times(F, np.array([1.0, 0.0, 3.0])).tolist()
+    >>> F = np.array([2.0, 1.0, 0.0, 2.0, 0.0, 1.0])[:, None]  # [[2, 1, 0], [1, 2, 0], [0, 0, 1]]
+    >>> sym3_times(F, np.array([1.0, 0.0, 3.0])[:, None]).ravel().tolist()
     [2.0, 1.0, 3.0]
     """
     out = np.empty_like(v) if out is None else out

@@ -18,7 +18,7 @@ Before it, the steady state's rule is applied one component at a time: a compone
 within ``STEADY_RTOL / 2`` of its last stored value from step ``t_k`` on
 (``skf_ref.method._paths.recursions``) is held there from ``t_k`` on. Its part of every
 block is then ``omega_k V_a,k V_b,k`` at every step, summed once per position with the
-other held components; a tile of steps from ``t`` computes only the components not held at
+other held components; a chunk of steps from ``t`` computes only the components not held at
 ``t``, ``B_t(i) = sum_{t_k > t} omega_t,k V_a,k V_b,k + sum_{t_k <= t} (held)``, one
 product with one more column. Strong components settle within tens of steps, weak ones
 never: on the benchmark problem (``validation/standardization_bench.py``, 1000 steps,
@@ -30,10 +30,10 @@ moves by ``STEADY_RTOL`` relative to its norm, as the steady state's weights do.
 A standardization applied to a second data set keeps ``B_t(i)^(-alpha)`` of the steps
 before the steady state (six numbers a position and step) when they take at most
 :data:`~.weights.CACHE_BYTES`, as the column form keeps its weights: every later data set
-then costs the products ``V_i u_t`` and one 3 x 3 product a block, not a power. The kept
-powers are computed in chunks of steps from the first, as an application whose tiles start
-there computes them: kept and computed estimates agree to rounding (and, for tiles that
-start later, within the held rule's ``STEADY_RTOL``, as computed ones do among themselves).
+then costs the products ``V_i u_t`` and one 3 x 3 product a block, not a power. Steps
+are taken in chunks cut at the multiples of ``_CHUNK_STEPS``, whatever the tile, and a
+chunk holds the components held at its first multiple: a block is the same sum in every
+tile, so kept and computed estimates agree to rounding.
 
 :class:`BlockStandardization` has the methods of the column form's
 :class:`~.weights.Standardization`, which :class:`~.spectral_rows.SpectralRows` calls; its
@@ -113,14 +113,15 @@ class BlockStandardization:
 
     def _blocks(self, rows: slice, times: slice, tile: Any = None) -> _Array:
         """The entries ``b_ab`` (6, n_positions, n_steps) of the blocks at ``rows`` and
-        ``times`` (before ``steady``): ``B_t(i) = V_i Diag(omega_t) V_i^T``, the components
-        held from ``times.start`` on summed once (module docstring). With ``tile`` (the rows
+        ``times`` (before ``steady``, within one chunk of :func:`_step_chunks`):
+        ``B_t(i) = V_i Diag(omega_t) V_i^T``, the components held from the chunk's anchor on
+        summed once (module docstring). With ``tile`` (the rows
         of the tile ``rows`` is part of) the products of ``V``'s rows are kept for the
         worker's next tile of the same rows: the tiles of a row block come one after
         another, and the products cost a quarter of the blocks' product if made anew."""
         pairs, held_sums = self._products(rows, tile)
-        # components 0 .. c - 1 (in held order) are not held at times.start
-        c = int(np.searchsorted(-self._held_from, -times.start, "left"))
+        # components 0 .. c - 1 (in held order) are not held at the chunk's first step
+        c = int(np.searchsorted(-self._held_from, -_anchor(times.start), "left"))
         n_steps = times.stop - times.start
         pairs[:, 0] = held_sums[:, c]
         omega = np.empty((c + 1, n_steps))
@@ -175,7 +176,7 @@ class BlockStandardization:
 
             def fill(chunk: slice) -> None:  # the chunks an application computes
                 where = slice(chunk.start // 3, chunk.stop // 3)
-                for steps in tiles.slices(0, S, _CHUNK_STEPS):
+                for steps in _step_chunks(0, S):
                     b = self._blocks(chunk, steps, tile=(chunk.start, chunk.stop))
                     cache[:, where, steps] = sym3_power(b, self.exponent, n_blocks=self._jobs)
 
@@ -187,7 +188,7 @@ class BlockStandardization:
         """The diagonal of ``W_t^(alpha)`` at ``rows`` and ``times`` (steps before
         ``steady``): (n_rows, n_steps)."""
         out = np.empty((rows.stop - rows.start, times.stop - times.start)) if out is None else out
-        for steps in tiles.slices(times.start, times.stop, _CHUNK_STEPS):
+        for steps in _step_chunks(times.start, times.stop):
             if self._cache is not None:
                 F = self._cache[:, rows.start // 3 : rows.stop // 3, steps]
             else:
@@ -214,7 +215,7 @@ class BlockStandardization:
             first = rows.start
             # a few hundred positions at a time: the blocks, the means and z stay in cache
             for chunk in tiles.slices(rows.start, rows.stop, 3 * _CHUNK_POSITIONS):
-                for steps in tiles.slices(transient.start, transient.stop, _CHUNK_STEPS):
+                for steps in _step_chunks(transient.start, transient.stop):
                     # (V u_t)[3i + a] as v[a, i, t]: one product per orientation
                     Vi = self.V[chunk].reshape(-1, 3, self.V.shape[1]).transpose(1, 0, 2)
                     v = np.matmul(Vi, u[steps].T)
@@ -244,6 +245,19 @@ class BlockStandardization:
             self.prepare()
             self._projector = self.held_basis(slice(None)).T @ self.V
         return self._projector
+
+
+def _anchor(step: int) -> int:
+    """The first step of the chunk of :data:`_CHUNK_STEPS` steps that holds ``step``."""
+    return step - step % _CHUNK_STEPS
+
+
+def _step_chunks(first: int, stop: int) -> list[slice]:
+    """``first:stop`` cut at the multiples of :data:`_CHUNK_STEPS`: the components held in a
+    chunk are those held at its anchor, so a block is the same sum whatever tile it is
+    computed in (the kept powers and the computed ones agree)."""
+    cuts = [first, *range(_anchor(first) + _CHUNK_STEPS, stop, _CHUNK_STEPS), stop]
+    return [slice(a, b) for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
 
 
 def _scatter(out: _Array, z: _Array) -> None:
