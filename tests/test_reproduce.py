@@ -228,6 +228,11 @@ class TestReport:
                 names.append(SENSITIVITY)
             for name in names:
                 assert (a / name).read_bytes() == (b / name).read_bytes(), name
+        runs = sorted((first / "worth" / "runs").rglob("*.csv.gz"))  # recomputed by the second
+        assert runs
+        for path in runs:
+            other = second / path.relative_to(first)
+            assert path.read_bytes() == other.read_bytes(), path.relative_to(first)
 
     def test_sensitivity_follows_the_discussion(self, reports):
         text = (reports[0][0] / "sphere-volume" / "CELL.md").read_text()

@@ -7,6 +7,7 @@ what its results files already hold (a run resumes), and writes each file atomic
 from __future__ import annotations
 
 import functools
+import gzip
 from pathlib import Path
 
 import numpy as np
@@ -77,16 +78,20 @@ def run_file(folder, set_name, design_name, key):
 
 
 def write_table(path, table):
-    """Write a table atomically (gzip when the name ends with .gz), sorted columns as given."""
+    """Write a table atomically (gzip when the name ends with .gz), columns as given.
+
+    The gzip header names no file and no time: a rerun writes the same bytes (pandas'
+    gzip names the temporary file the table is written to).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    compression = "gzip" if path.suffix == ".gz" else None
+    text = table.to_csv(index=False, float_format=DIGITS, lineterminator="\n")
     with atomic_path(path) as tmp:
-        if compression:
-            table.to_csv(tmp, index=False, float_format=DIGITS, lineterminator="\n",
-                         compression=dict(method="gzip", mtime=0))  # fmt: skip
+        if path.suffix == ".gz":
+            with open(tmp, "wb") as raw, gzip.GzipFile("", "wb", fileobj=raw, mtime=0) as out:
+                out.write(text.encode())
         else:
-            table.to_csv(tmp, index=False, float_format=DIGITS, lineterminator="\n")
+            tmp.write_text(text)
 
 
 def _stack(tables):
