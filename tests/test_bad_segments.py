@@ -53,7 +53,8 @@ def test_bad_segments_have_no_estimate_and_the_rest_ignores_them(operator_and_ra
     log = capsys.readouterr().err
     assert "2 bad segment(s) (BAD_ annotations) skipped as missing observations, 40 of 360" in log
     assert "0.100-0.119 s, 0.250-0.269 s" in log
-    # what a bad segment holds never reaches the estimate: a 1e6 x artefact, bit-equal
+    # what a bad segment holds never reaches the estimate: a 1e6 x artefact, bit-equal (the
+    # segment is missing on both runs: the same calls on the same numbers)
     shouted = apply_skf_raw(_annotated(raw, [0.1, 0.25], 0.02, 1e6), operator, **SETTINGS)
     np.testing.assert_array_equal(shouted.data, stc.data)
 
@@ -62,6 +63,7 @@ def test_without_rejection_every_sample_is_filtered(operator_and_raw):
     operator, raw = operator_and_raw
     annotated = _annotated(raw, [0.1], 0.02)
     kept = apply_skf_raw(annotated, operator, reject_by_annotation=False, **SETTINGS)
+    # the same samples through the same calls: equal by construction
     np.testing.assert_array_equal(kept.data, apply_skf_raw(raw, operator, **SETTINGS).data)
     artefact = _annotated(raw, [0.1], 0.02, 1e6)
     moved = apply_skf_raw(artefact, operator, reject_by_annotation=False, **SETTINGS)

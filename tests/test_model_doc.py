@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rounding import same_printout
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "model.md"
 
@@ -65,10 +66,6 @@ def _examples(text):
     return pairs
 
 
-def _lines(output):
-    return [line.rstrip() for line in output.rstrip("\n").splitlines()]
-
-
 @pytest.fixture(scope="module")
 def text():
     return DOC.read_text(encoding="utf-8")
@@ -102,7 +99,9 @@ def test_example_has_python_blocks_each_with_its_output(text):
 def test_printed_output_is_the_documented_output(run):
     _, outputs = run
     for number, (printed, expected) in enumerate(outputs, start=1):
-        assert _lines(printed) == _lines(expected), f"python block {number}"
+        # numbers to the digits the page shows: a value on a rounding boundary prints as
+        # either neighbour on another BLAS kernel (tests/rounding.py)
+        assert same_printout(printed, expected), f"python block {number}"
 
 
 def test_filterpy_and_dense_agree_numerically(run):

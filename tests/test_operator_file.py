@@ -69,6 +69,8 @@ def test_an_operator_read_gives_the_estimates_bit_for_bit(sample, tmp_path, sett
     for pick_ori in (None, "vector") if written.n_components == 3 else (None,):
         a = apply_skf(evoked, written, pick_ori=pick_ori)
         b = apply_skf(evoked, read, pick_ori=pick_ori)
+        # the file holds the operator's arrays bit for bit, and the same calls run on them:
+        # equal by construction (on one machine, as docs/mne.md promises)
         np.testing.assert_array_equal(a.data, b.data)
         assert type(a) is type(b) and a.subject == b.subject
         np.testing.assert_array_equal(a.vertices[0], b.vertices[0])

@@ -140,9 +140,17 @@ def test_the_short_cases_carry_their_expected_intermediates():
             continue
         fresh = expected_intermediates(case)
         assert set(case.intermediates) == set(fresh) - {"theta0", "q"}, name
+        # pinned on one machine, recomputed here with another BLAS kernel maybe: they agree to
+        # a few ulps times the condition of the solves with S_t (1.5e6 in ill_conditioned)
+        condition = max(np.linalg.cond(S) for S in np.moveaxis(fresh["S"], -1, 0))
+        rtol = 10 * np.finfo(float).eps * condition
         for key, value in case.intermediates.items():  # pinned; the package agrees
-            scale = np.max(np.abs(fresh[key])) or 1.0
-            assert np.max(np.abs(value - fresh[key])) <= 1e-12 * scale, (name, key)
+            # relative to the quantities each is computed from: P_{t|t} = P_{t|t-1} - K S K^T
+            # cancels (to 1/170 of P_{t|t-1} in priors_toolbox_clamped), so its error is
+            # eps times P_{t|t-1}'s scale, not its own
+            sources = [fresh[key], fresh["P_pred"]] if key == "P_filt" else [fresh[key]]
+            scale = max(np.max(np.abs(a)) for a in sources) or 1.0
+            assert np.max(np.abs(value - fresh[key])) <= rtol * scale, (name, key)
     mat = read_case(SUITES[3] / "position.mat")  # MATLAB's file holds the same
     assert mat.intermediates["P_pred"].shape == (9, 9, 7)
     np.testing.assert_array_equal(mat.intermediates["K"], CASES["position"].intermediates["K"])
