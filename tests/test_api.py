@@ -126,11 +126,13 @@ PUBLIC_API = {
         "mne_data",
     },
     "skf_ref.study.demo": {
+        "COLUMNS",
         "DATA",
         "DETECTION_COLUMNS",
         "Demo",
         "HEADS",
         "OUTPUTS",
+        "RENAMED",
         "run_demo",
     },
     "skf_ref.study.detection": {

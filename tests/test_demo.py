@@ -2,12 +2,16 @@
 
 import contextlib
 import io
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import skf_ref
-from skf_ref.study.demo import DATA, OUTPUTS, run_demo
+from skf_ref.study.demo import COLUMNS, DATA, DETECTION_COLUMNS, OUTPUTS, RENAMED, run_demo
+
+COMMITTED = Path(__file__).resolve().parents[1] / "validation" / "demo"
 
 SMALL = dict(head="sphere", source_space="volume", n_positions=500)
 
@@ -39,6 +43,26 @@ def test_three_methods_on_the_data_with_and_without_the_deep_source(demo):
     )
     assert absent.sources == ("superficial",) and present.sigma == absent.sigma
     assert list(demo.metrics.columns) == [f"{m}, {d}" for m in demo.methods for d in DATA]
+
+
+def test_no_metric_called_detected_but_the_calibrated_one(demo):
+    # Issue 41: "deep_detected" (the deep region within 6 dB of the maximum) was True in the
+    # deep-absent columns too; only the calibrated detection answers "was it detected".
+    assert list(demo.metrics.index) == [name for name, *_ in COLUMNS]
+    assert not set(RENAMED) & set(demo.metrics.index)
+    assert all(isinstance(v, bool) for v in demo.metrics.loc["deep_within_6db"])
+    names = [name for name, *_ in (*COLUMNS, *DETECTION_COLUMNS)]
+    assert [n for n in names if "detected" in n] == ["deep_detected_calibrated"]
+
+
+def test_the_committed_demo_has_the_metrics_the_demo_writes():
+    table = pd.read_csv(COMMITTED / "metrics.csv", index_col=0)
+    assert list(table.index) == [name for name, *_ in (*COLUMNS, *DETECTION_COLUMNS)]
+    columns = pd.read_csv(COMMITTED / "metrics_columns.csv", keep_default_na=False)
+    assert [tuple(row) for row in columns.itertuples(index=False)] == [
+        *COLUMNS,
+        *DETECTION_COLUMNS,
+    ]
 
 
 def test_the_settings_are_the_recommended_and_the_papers(demo):

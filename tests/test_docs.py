@@ -145,7 +145,7 @@ def test_citation_metadata_agree():
     assert re.search(r"^cff-version: 1\.2\.0$", cff, re.M)
     assert re.search(rf"^version: {re.escape(skf_ref.__version__)}$", cff, re.M)
     titles = re.findall(r'^    title: "(.+)"$', cff, re.M)
-    assert len(titles) == 2
+    assert len(titles) == 4  # the SKF, the seed study, the standardization's theory (two)
     citing = " ".join((DOCS / "citing.md").read_text().split())
     for title in titles:
         assert title in citing, title
@@ -162,6 +162,9 @@ def test_citation_references_carry_the_papers_dois_and_claim_no_repository():
         "subcortical and cortical brain activity": "10.1016/j.clinph.2024.09.021",
         "The Effect of Prior Parameters on Standardized Kalman Filter-Based EEG Source "
         "Localization": "10.48550/arXiv.2507.23450",
+        "On Bias and Its Reduction via Standardization in Discretized Electromagnetic Source "
+        "Localization Problems": "10.1088/1361-6420/ad5f53",
+        "On Unbiased Parameter Estimation and Signal Reconstruction": "10.48550/arXiv.2605.05276",
     }
     # the repository has no public home yet: neither the citation nor the package claims one
     assert not {"repository-code", "url", "repository"} & set(cff)
@@ -170,7 +173,11 @@ def test_citation_references_carry_the_papers_dois_and_claim_no_repository():
     citing = (DOCS / "citing.md").read_text()
     for doi in dois.values():
         assert f"doi:[{doi}](https://doi.org/{doi})" in citing
-    assert "arXiv:2507.23450" in citing
+    for arxiv in ("2507.23450", "2405.04409", "2605.05276"):
+        assert f"[arXiv:{arxiv}](https://arxiv.org/abs/{arxiv})" in citing
+    # the seed study's status says how it was checked, and claims no journal DOI (issue 41)
+    seed = next(r for r in cff["references"] if r["title"].startswith("The Effect"))
+    assert seed["status"] == "preprint" and "checked in November 2026" in seed["notes"]
 
 
 def _conf_constants():

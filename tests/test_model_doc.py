@@ -24,9 +24,10 @@ FENCE = re.compile(
     r"^(?P<indent> *)```(?P<lang>\w*)\n(?P<body>.*?)^(?P=indent)```[ \t]*$", re.M | re.S
 )
 
-# The filterpy path and the dense path compute the same algebra in a different floating-point
-# order: filterpy forms S_t^{-1} explicitly, updates P in Joseph form and inverts P_{t+1|t}
-# in its smoother; the dense path uses Cholesky solves and P - K S K^T. Their differences
+# The filterpy path and the example's numpy lines (the dense path's algebra) compute the same
+# in a different floating-point order: filterpy forms S_t^{-1} explicitly, updates P in Joseph
+# form and inverts P_{t+1|t} in its smoother; the numpy lines use Cholesky solves and
+# P - K S K^T. Their differences
 # are a few units of eps (2.2e-16) times the condition numbers, which the example keeps
 # below 20 (asserted below), so about 1e-14 at most; 1e-12 leaves room for other
 # BLAS/LAPACK builds, while a real difference in the algebra (a wrong covariance, a missing
@@ -104,7 +105,7 @@ def test_printed_output_is_the_documented_output(run):
         assert same_printout(printed, expected), f"python block {number}"
 
 
-def test_filterpy_and_dense_agree_numerically(run):
+def test_filterpy_and_numpy_agree_numerically(run):
     ns, _ = run
     f, fp = ns["f"], ns["fp"]
     # the tolerance's premise: well-conditioned matrices
@@ -113,7 +114,7 @@ def test_filterpy_and_dense_agree_numerically(run):
     for key in ("P_pred", "x_filt", "P_filt", "P_pred_inv_sqrt", "w", "weights", "z"):
         np.testing.assert_allclose(fp[key], f[key], rtol=0, atol=RTOL * np.abs(f[key]).max())
     assert ns["log_likelihood"] == pytest.approx(f["log_likelihood"], rel=RTOL)
-    # both smoothers, filterpy's method against dense.rts
+    # both smoothers, filterpy's method against the example's own rts
     np.testing.assert_allclose(ns["s_fp"], ns["s"], rtol=0, atol=RTOL * np.abs(ns["s"]).max())
     x_s = ns["x_s"]
     np.testing.assert_allclose(ns["x_s_fp"], x_s, rtol=0, atol=RTOL * np.abs(x_s).max())
@@ -171,3 +172,18 @@ def test_every_package_name_in_the_document_exists(text):
             _resolve(name)
         except (AttributeError, ModuleNotFoundError) as err:
             pytest.fail(f"docs/model.md names `{name}`, which does not exist ({err})")
+
+
+def test_the_worked_example_uses_public_names_and_links_the_numpy_example(text):
+    # Issue 41: a reader copies the example; a private module (skf_ref.method._paths...) is
+    # no promise. The numpy-only version is the gallery's "SKF by hand".
+    section = text[text.index("\n## 8. ") : text.index("\n## 9. ")]
+    code = "\n".join(body for lang, body, _, _ in _blocks(section) if lang == "python")
+    assert code.count("import") >= 3
+    for name in re.findall(r"\bskf_ref(?:\.\w+)+", code):
+        assert not any(part.startswith("_") for part in name.split(".")), name
+    imported = re.findall(r"^from (\S+) import|^import (\S+)", code, flags=re.M)
+    for module in (a or b for a, b in imported):
+        assert not any(part.startswith("_") for part in module.split(".")), module
+    assert "{doc}`auto_examples/plot_skf_by_hand`" in section
+    assert (DOC.parent / "examples" / "plot_skf_by_hand.py").is_file()

@@ -8,8 +8,11 @@ import sys
 from importlib import metadata
 from pathlib import Path
 
+import pytest
+
 import skf_ref
 from skf_ref._utils import provenance
+from skf_ref._utils.extras import MissingDependencyError, optional
 from skf_ref._utils.sys_info import OPTIONAL, REQUIRED, sys_info
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -109,3 +112,28 @@ def test_imports_no_optional_or_heavy_package():
         [sys.executable, "-c", code], check=True, capture_output=True, text=True, cwd=ROOT
     )
     assert result.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_a_missing_extra_says_to_install_it_from_the_source_tree():
+    # skf_ref is on no package index: `pip install 'skf_ref[mne]'` would fail (issue 41).
+    with pytest.raises(MissingDependencyError) as raised:
+        optional("no_such_module", "mne", "apply_skf")
+    said = str(raised.value)
+    assert said.startswith("apply_skf needs no_such_module, which is not installed:")
+    assert "python -m pip install '.[mne]'" in said and "skf_ref[" not in said
+    assert "python -m pip install no_such_module" in said
+
+
+def test_no_install_line_names_the_package_from_an_index():
+    texts = [
+        ROOT / "README.md",
+        *ROOT.glob("docs/*.md"),
+        *ROOT.glob("docs/*.rst"),
+        *ROOT.glob("docs/examples/*.py"),
+        *ROOT.glob("docs/examples/*.rst"),
+        *ROOT.glob("skf_ref/**/*.py"),
+    ]
+    index_install = re.compile(r"pip install\s+(?:-\S+\s+)*['\"]?skf[_-]ref\b")
+    for path in texts:
+        text = re.sub(r"\s+", " ", path.read_text())
+        assert not index_install.search(text), f"{path}: {index_install.search(text)[0]}"

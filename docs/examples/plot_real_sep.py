@@ -10,9 +10,9 @@ or a sphere fitted to the electrodes), a noise covariance from the pre-stimulus 
 then the SKF and MNE's methods, and where each puts the N20.
 
 Two recordings: a 256-channel average of about 6000 stimuli that ships with the package
-``spharapy`` (``pip install "skf_ref[datasets]"``), with a sphere fitted to the cap; and
-subject A0206 of the feCNN repository with its own finite-element (FEM) lead field, when
-its files are found (:func:`skf_ref.datasets.data_path`). The report
+``spharapy`` (from the source tree, ``python -m pip install ".[datasets]"``), with a sphere
+fitted to the cap; and subject A0206 of the feCNN repository with its own finite-element (FEM)
+lead field, when its files are found (:func:`skf_ref.datasets.data_path`). The report
 ``validation/report/real/REAL.md`` runs every method at several priors against criteria
 written before the numbers (:doc:`/real_data`); this page shows the recipe.
 """

@@ -1,10 +1,10 @@
 """Optional packages, and the extra of skf_ref that installs each.
 
-``pip install skf_ref`` installs what the method needs (numpy, scipy, filterpy,
-threadpoolctl, matplotlib, pandas). The rest comes with an extra: ``mne`` (MNE-Python and
-the file readers it needs), ``study`` (the demo, the sweeps, the report), ``zarr``,
-``dask``. A function that needs a missing one raises :class:`MissingDependencyError`
-saying which extra to install.
+``python -m pip install .`` from the source tree (skf_ref is not on a package index)
+installs what the method needs (numpy, scipy, filterpy, threadpoolctl, matplotlib, pandas).
+The rest comes with an extra: ``mne`` (MNE-Python and the file readers it needs), ``study``
+(the demo, the sweeps, the report), ``zarr``, ``dask``. A function that needs a missing one
+raises :class:`MissingDependencyError` saying which extra to install, and how.
 """
 
 import importlib
@@ -21,8 +21,9 @@ class MissingDependencyError(ImportError):
 
 def _message(module: str, extra: str, what: str) -> str:
     return (
-        f"{what} needs {module}, which is not installed: pip install 'skf_ref[{extra}]' "
-        f"(or pip install {module})"
+        f"{what} needs {module}, which is not installed: install skf_ref's extra '{extra}' "
+        f"from its source tree (python -m pip install '.[{extra}]', or a wheel or sdist of it "
+        f"with '[{extra}]' after its path), or {module} alone (python -m pip install {module})"
     )
 
 

@@ -16,7 +16,7 @@ from .provenance import blas_threads, package_versions
 
 __all__ = ["OPTIONAL", "REQUIRED", "sys_info"]
 
-#: What ``pip install skf_ref`` installs (setup.cfg's ``install_requires``).
+#: What ``python -m pip install .`` installs from the source tree (``install_requires``).
 REQUIRED = ("numpy", "scipy", "filterpy", "threadpoolctl", "matplotlib", "pandas")
 #: What the extras add (``mne``, ``study``, ``zarr``, ``dask``, ``parquet``).
 OPTIONAL = (

@@ -18,7 +18,8 @@ if TYPE_CHECKING:
 __all__ = ["add_parser", "run"]
 
 #: The metrics the demo prints (all are in metrics.csv): the thalamus' level against its
-#: calibrated threshold on a cortex + thalamus head, the paper's 6 dB reading otherwise.
+#: calibrated threshold on a cortex + thalamus head, the paper's 6 dB reading otherwise (where
+#: the estimate is largest, not whether the deep source is there).
 _PRINTED = (
     "thalamic_level",
     "detection_threshold",
@@ -28,7 +29,7 @@ _PRINTED = (
 )
 _PRINTED_6DB = (
     "deep_region_db",
-    "deep_detected",
+    "deep_within_6db",
     "deep_error_mm",
     "superficial_error_mm",
     "separation",

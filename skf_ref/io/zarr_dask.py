@@ -3,8 +3,8 @@
 Every row of every spectral output depends on that row of ``V`` and on r x T quantities only
 (the reconstruction's ``lazy_outputs``), so an output never has to exist whole: :func:`to_zarr`
 writes it block of rows by block, :func:`to_dask` hands the blocks to Dask. Outputs of the other
-paths, held in memory already, are cut into the same blocks. zarr and Dask are optional: ``pip
-install "skf_ref[zarr]"`` or ``"skf_ref[dask]"``.
+paths, held in memory already, are cut into the same blocks. zarr and Dask are optional: from the
+source tree, ``python -m pip install ".[zarr]"`` or ``".[dask]"``.
 """
 
 from __future__ import annotations
