@@ -140,9 +140,12 @@ def test_the_short_cases_carry_their_expected_intermediates():
             continue
         fresh = expected_intermediates(case)
         assert set(case.intermediates) == set(fresh) - {"theta0", "q"}, name
+        # the ill-conditioned case: double-precision codes agree to 1e-10 (its description);
+        # scipy 1.10-1.12 (an older LAPACK) puts its weights 2e-12 from the pinned ones
+        tolerance = 1e-10 if name == "ill_conditioned" else 1e-12
         for key, value in case.intermediates.items():  # pinned; the package agrees
             scale = np.max(np.abs(fresh[key])) or 1.0
-            assert np.max(np.abs(value - fresh[key])) <= 1e-12 * scale, (name, key)
+            assert np.max(np.abs(value - fresh[key])) <= tolerance * scale, (name, key)
     mat = read_case(SUITES[3] / "position.mat")  # MATLAB's file holds the same
     assert mat.intermediates["P_pred"].shape == (9, 9, 7)
     np.testing.assert_array_equal(mat.intermediates["K"], CASES["position"].intermediates["K"])
