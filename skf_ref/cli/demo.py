@@ -164,7 +164,8 @@ def run(args: argparse.Namespace) -> Demo:
     calibrated = "detection_threshold" in demo.metrics.index
     table = demo.metrics.loc[list(_PRINTED if calibrated else _PRINTED_6DB)].T
     table.index = [_row_label(demo, column) for column in table.index]
-    print(table.map(lambda v: f"{v:.3g}" if isinstance(v, float) else v).to_string())
+    # column by column (Series.map): DataFrame.map is pandas 2.1's
+    print(table.apply(lambda column: column.map(_three_digits)).to_string())
     if calibrated:
         print(
             "detected: the thalamus' largest amplitude at 1.5 ms above the method's threshold, "
@@ -172,6 +173,10 @@ def run(args: argparse.Namespace) -> Demo:
             "set: the rates over many are in the study's report)"
         )
     return demo
+
+
+def _three_digits(value: object) -> object:
+    return f"{value:.3g}" if isinstance(value, float) else value
 
 
 def _db(value: float | str | tuple[float, float]) -> str:

@@ -64,7 +64,8 @@ def load_sep256_evoked(
     mne = optional("mne", "mne", "load_sep256_evoked")
     datasets = optional("spharapy.datasets", "datasets", "load_sep256_evoked")
     study = datasets.load_eeg_256_channel_study()
-    labels = [str(label) for label in study["labellist"]]
+    # spharapy 1.3 gives the labels as strings, 1.1 each in a list of one: ravel takes both
+    labels = [str(label) for label in np.ravel(study["labellist"])]
     montage = mne.channels.make_dig_montage(
         dict(zip(labels, _mne_axes(study["vertlist"]), strict=True)), coord_frame="head"
     )

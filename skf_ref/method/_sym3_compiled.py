@@ -78,7 +78,7 @@ def _trisection_polynomials() -> list[NDArray[np.float64]]:
     for values in (np.cos(angle), np.sin(angle) / np.sqrt(1 - nodes)):
         series = np.polynomial.Chebyshev.fit(nodes, values, _DEGREE, domain=[0, 1])
         monomial = series.convert(kind=np.polynomial.Polynomial, domain=[0, 1], window=[0, 1])
-        fits.append(monomial.coef)
+        fits.append(np.asarray(monomial.coef, dtype=np.float64))
     return fits
 
 

@@ -11,7 +11,7 @@ import json
 import math
 import sys
 import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 from skf_ref._utils.atomic_files import atomic_path
@@ -312,7 +312,7 @@ def _placement(out, results):
 
 def _generated(elapsed, jobs, computed, total):
     """The one line of REPORT.md that changes between identical runs: date and wall time."""
-    stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     return (
         f"Generated: {stamp}; wall time {elapsed:.0f} s with --jobs {jobs} "
         f"({computed} of {total} runs computed, {total - computed} reused from the results "

@@ -41,6 +41,14 @@ except ImportError:  # Windows: the lock file alone
 
 __all__ = ["ResultsFile", "TornLineWarning", "read_results"]
 
+# pandas before 3.1 reads some floats back one unit in the last place off unless asked to
+# round-trip (3.1 reads every float exactly and deprecates the option): rows kept as written
+_EXACT_FLOATS = (
+    {"float_precision": "round_trip"}
+    if tuple(int(part) for part in pd.__version__.split(".")[:2]) < (3, 1)
+    else {}
+)
+
 
 class TornLineWarning(UserWarning):
     """A results file ended in a torn line (an interrupted write); it was cut off."""
@@ -85,7 +93,7 @@ def read_results(out: str | os.PathLike) -> pd.DataFrame:
         return _checked(frame, path, lambda i: f"row {i}")
     text = _complete_lines(path)
     _check_fields(text, path)
-    frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""])
+    frame = pd.read_csv(io.StringIO(text), keep_default_na=False, na_values=[""], **_EXACT_FLOATS)
     return _checked(frame, path, lambda i: f"line {i + 2}")
 
 
