@@ -226,8 +226,8 @@ def _initial_variance(
     auto = [k for k, value in given.items() if isinstance(value, str) and value.strip() == "auto"]
     if auto:
         raise InputError(
-            f"{caller} takes numbers, got {' and '.join(auto)}='auto'; priors chosen by the "
-            "data are skf_ref.tune's: tune(L, Y, noise_std=...) gives them"
+            f"{caller} takes numbers, got {' and '.join(auto)}='auto': priors chosen by the "
+            "data ('auto') are skf_ref.tune's: tune(L, Y, noise_std=...) gives them"
         )
     pm_snr_db = check_db("pm_snr_db", pm_snr_db)
     amplitude = lead_field_amplitude(L, convention)
