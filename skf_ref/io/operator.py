@@ -35,6 +35,7 @@ from ..method import (
     SpectralBasis,
     SpectralModel,
     StateSpaceModel,
+    TuneResult,
     ar1_priors,
     priors_from_snr,
     reconstruct,
@@ -42,7 +43,7 @@ from ..method import (
 from ..method._model import missing_steps
 from ..method._search import TimeConstant, check_time_constant
 from ..method._settings import check_gaps, check_settings
-from ..method._tuning import TuneResult, choose_priors
+from ..method._tuning import choose_priors
 from .channels import (
     check_average_referenced,
     check_channel_types,
