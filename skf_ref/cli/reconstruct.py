@@ -183,7 +183,9 @@ def _route(args):
             "--time-constant-ms (the stationary AR(1) prior), not both"
         )
     if args.time_constant_ms is None and args.ep_snr_db is None:
-        args.ep_snr_db = 0.0  # the paper's random walk, at EP-SNR 0 dB
+        from ..method._priors import DEFAULT_EP_SNR_DB
+
+        args.ep_snr_db = DEFAULT_EP_SNR_DB  # the paper's random walk, at 0 dB
     _check_outputs(args)
     if args.standardize is None and not mne_route:  # an array does not say which columns
         args.standardize = "column"  # form a position; the MNE route's operator decides

@@ -41,6 +41,7 @@ from typing import Any
 from .._utils.checks import InputTypeError, describe
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
+from ..method._priors import DEFAULT_EP_SNR_DB
 from ..method._search import check_one_evolution_prior, check_time_constant
 from .channels import channel_types, has_average_reference_projector, pick_channels
 from .noise_cov import ad_hoc_covariance, check_noise_covariance, given_covariance
@@ -150,7 +151,8 @@ def make_skf_operator(
         if time_constant_ms is not None:
             ep, tau = None, check_time_constant(time_constant_ms)
         else:  # the random walk, at EP-SNR 0 dB unless given
-            ep = check_prior("ep_snr_db", 0.0 if ep_snr_db is None else ep_snr_db)
+            given = DEFAULT_EP_SNR_DB if ep_snr_db is None else ep_snr_db
+            ep = check_prior("ep_snr_db", given)
         covariance = given_covariance(noise_cov, noise_std)
         used, dropped = pick_channels(info, forward, covariance, meg, eeg)
         picked = mne.pick_info(info, [info.ch_names.index(name) for name in used])

@@ -36,6 +36,7 @@ from .._utils.checks import (
 )
 
 __all__ = [
+    "DEFAULT_EP_SNR_DB",
     "ar1_coefficients",
     "ar1_priors",
     "evolution_variance",
@@ -45,6 +46,9 @@ __all__ = [
 ]
 
 CONVENTIONS = ("gain", "toolbox")
+#: The random walk's EP-SNR (dB) where neither an EP-SNR nor a time constant is given: the
+#: study's rule (validation/report/REPORT.md), on every route that makes an operator.
+DEFAULT_EP_SNR_DB = 0.0
 
 
 def _variance(name: str, compute: Callable[[], float], formula: str) -> float:

@@ -37,6 +37,7 @@ from ._model import StateSpaceModel
 from ._paths.singular_basis import SpectralBasis, whitener
 from ._priors import (
     CONVENTIONS,
+    DEFAULT_EP_SNR_DB,
     ar1_coefficients,
     ar1_priors,
     evolution_variance,
@@ -542,7 +543,7 @@ def choose_priors(
     check_choice("criterion", criterion, CRITERIA)
     check_one_evolution_prior(ep_snr_db, time_constant_ms)
     if ep_snr_db is None and time_constant_ms is None:
-        ep_snr_db = 0.0  # the random walk at EP-SNR 0 dB, the study's rule
+        ep_snr_db = DEFAULT_EP_SNR_DB  # the random walk at the study's rule's EP-SNR
     given = [v for v in (pm_snr_db, ep_snr_db, time_constant_ms) if v is not None]
     if any(isinstance(v, str) or np.ndim(v) > 0 for v in given):
         result = tune(
