@@ -41,6 +41,7 @@ _HOMES = {
     "RECOMMENDED_SETTING": "method",
     "Reconstruction": "method",
     "StandardizedKalmanFilter": "method",
+    "ar1_priors": "method",
     "evolution_variance": "method",
     "lead_field_amplitude": "method",
     "prior_variance": "method",

@@ -11,7 +11,7 @@ the identity).
 
 import numpy as np
 
-from skf_ref import priors_from_snr
+from skf_ref import ar1_priors, priors_from_snr
 
 OUTPUTS = ("z", "z_filtered", "x", "x_filtered", "weights", "log_likelihood")
 _POSTERIOR = (
@@ -162,20 +162,27 @@ def run_case(case, *, mistake=None, dtype=np.float64):
         if "convention" not in e:
             return None
         other = "toolbox" if e["convention"] == "gain" else "gain"
-        theta0, q = priors_from_snr(
-            L, e["noise_std"], e["pm_snr_db"], e["ep_snr_db"], case.shape[1], other
-        )
+        if "time_constant_ms" in e:  # the stationary AR(1) prior
+            theta0, q, _ = ar1_priors(
+                L, e["noise_std"], e["pm_snr_db"], e["time_constant_ms"], e["sfreq"], other
+            )
+        else:
+            theta0, q = priors_from_snr(
+                L, e["noise_std"], e["pm_snr_db"], e["ep_snr_db"], case.shape[1], other
+            )
         Q, P0 = q * np.eye(n), theta0 * np.eye(n)
     if mistake == "missing_average_reference":
         if "L_unreferenced" not in case.extras:
             return None
         L = case.extras["L_unreferenced"]
     by_position = p.get("standardize", "column") == "position"
+    # the stationary AR(1) prior: P_{1|0} = P_0, one prediction more or less cannot show
+    stationary = np.allclose(A @ P0 @ A.T + Q, P0, rtol=1e-12, atol=0.0)
     inapplicable = {
         # mistakes of the standardization of each column on its own (the catalogue's)
-        **dict.fromkeys(
-            (*_POSTERIOR, "exponent_on_square_root", "no_first_prediction"), by_position
-        ),
+        **dict.fromkeys((*_POSTERIOR, "exponent_on_square_root"), by_position),
+        "no_first_prediction": by_position or stationary,
+        "extra_first_prediction": stationary,
         "other_smoother": p["smoother"] in (None, "rts-smoothed-weights"),
         "transition_ignored": np.array_equal(A, np.eye(n)),
         "exponent_fixed_at_half": p["exponent"] == 0.5,

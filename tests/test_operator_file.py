@@ -43,11 +43,17 @@ def sample():
     return forward, epochs, cov
 
 
-@pytest.mark.filterwarnings("ignore:tune. (pm|ep)_snr_db")  # the same choice, read or not
+@pytest.mark.filterwarnings("ignore:tune. (pm|ep)_snr_db|tune. time_constant_ms")  # read or not
 @pytest.mark.parametrize(
     "settings",
-    [dict(), dict(pm_snr_db=(-30.0, 30.0)), dict(ep_snr_db="auto", fixed=True)],
-    ids=["free", "range", "fixed-auto"],
+    [
+        dict(),
+        dict(pm_snr_db=(-30.0, 30.0)),
+        dict(ep_snr_db="auto", fixed=True),
+        dict(time_constant_ms=15.0),
+        dict(time_constant_ms=(2.0, 200.0), pm_snr_db="auto"),
+    ],
+    ids=["free", "range", "fixed-auto", "time-constant", "time-constant-range"],
 )
 def test_an_operator_read_gives_the_estimates_bit_for_bit(sample, tmp_path, settings):
     forward, epochs, cov = sample
@@ -105,14 +111,31 @@ def test_the_file_is_hdf5_without_pickles_and_versioned(sample, tmp_path):
         write_skf_operator(tmp_path / "b-skf.h5", forward)
 
 
+def test_the_version_is_1_for_the_random_walk_and_2_for_a_time_constant(sample, tmp_path):
+    # a random-walk operator stays readable by every skf_ref; a time constant needs format 2
+    forward, epochs, cov = sample
+    for settings, version in ((dict(), 1), (dict(time_constant_ms="auto"), 2)):
+        operator = make_skf_operator(epochs.info, forward, cov, verbose=False, **settings)
+        path = write_skf_operator(tmp_path / f"v{version}-skf.h5", operator, overwrite=True)
+        with h5py.File(path, "r") as h5:
+            assert h5["skf_ref/key_version"][()] == version
+            assert ("key_time_constant_ms" in h5["skf_ref"]) == (version == 2)
+            assert ("key_ep_snr_db" in h5["skf_ref"]) == (version == 1)
+        read = read_skf_operator(path)
+        assert (read.ep_snr_db, read.time_constant_ms) == (
+            operator.ep_snr_db,
+            operator.time_constant_ms,
+        )
+
+
 def test_a_file_of_a_later_version_or_another_kind_is_refused(sample, tmp_path, monkeypatch):
     forward, epochs, cov = sample
-    operator = make_skf_operator(epochs.info, forward, cov, verbose=False)
-    monkeypatch.setattr(operator_file, "OPERATOR_FORMAT_VERSION", 2)
+    operator = make_skf_operator(epochs.info, forward, cov, time_constant_ms=20.0, verbose=False)
     path = write_skf_operator(tmp_path / "new-skf.h5", operator)
-    monkeypatch.undo()
+    monkeypatch.setattr(operator_file, "OPERATOR_FORMAT_VERSION", 1)  # an skf_ref before 0.4
     with pytest.raises(InputError, match=r"format version 2 .* reads versions up to 1: upgrade"):
         read_skf_operator(path)
+    monkeypatch.undo()
     with h5py.File(tmp_path / "other.h5", "w") as h5:
         h5["data"] = np.zeros(3)
     with pytest.raises(InputError, match="other.h5 is not an SKF operator file"):

@@ -28,6 +28,10 @@ def relative(a, b):
     return np.max(np.abs(a - b)) / np.max(np.abs(b))
 
 
+#: rho of the stationary AR(1) prior, exp(-dt / tau): (0, 1], 1 the static prior (q = 0).
+stationary_rho = st.one_of(st.just(1.0), st.floats(1e-3, 1.0, exclude_max=True))
+
+
 @st.composite
 def models(draw):
     seed = draw(st.integers(0, 2**32 - 1))
@@ -53,12 +57,16 @@ def models(draw):
         ep_snr_db=draw(st.sampled_from([-10.0, 0.0, 20.0])),
         n_steps=T,
     )
+    q, transition = draw(st.sampled_from([0.0, q])), draw(st.sampled_from([1.0, 0.8, -0.5]))
+    if draw(st.booleans()):  # the stationary AR(1) prior (ar1_priors): rho in (0, 1]
+        transition = draw(stationary_rho)
+        q = -np.expm1(2 * np.log(transition)) * theta0  # (1 - rho^2) theta0
     return dict(
         L=L,
         Y=Y,
         theta0=theta0,
-        q=draw(st.sampled_from([0.0, q])),
-        transition=draw(st.sampled_from([1.0, 0.8, -0.5])),
+        q=q,
+        transition=transition,
         exponent=draw(st.sampled_from([0.0, 0.5, 1.0, 1.25, 1.5, 2.0, 0.7])),
         smoother=draw(st.sampled_from(SMOOTHERS)),
         standardize=draw(st.sampled_from(["column", "position"])),

@@ -126,3 +126,58 @@ L_OK = np.array([[1.0, 0.0], [0.0, 4.0], [0.0, 0.0]])
 def test_invalid_inputs(call, error, match):
     with pytest.raises(error, match=match):
         call()
+
+
+# --- the stationary AR(1) prior (docs/model.md §4, beyond the paper) ----------------------
+
+
+def test_ar1_priors_worked_numbers():
+    from skf_ref import ar1_priors
+
+    rng = np.random.default_rng(4)
+    L = rng.standard_normal((16, 40))
+    for convention in ("gain", "toolbox"):
+        theta0, q, rho = ar1_priors(L, 0.2, 3.0, 25.0, 400.0, convention=convention)
+        # theta0 is priors_from_snr's, whatever the EP-SNR and K it would take
+        assert theta0 == priors_from_snr(L, 0.2, 3.0, 0.0, 1, convention)[0]
+        # dt = 2.5 ms, tau = 25 ms: rho = exp(-0.1), q = (1 - rho^2) theta0
+        assert rho == pytest.approx(np.exp(-0.1), rel=RTOL)
+        assert q == pytest.approx((1 - np.exp(-0.2)) * theta0, rel=RTOL)
+        # stationary: Var x_t = rho^2 Var x_{t-1} + q = theta0 at every step
+        assert rho**2 * theta0 + q == pytest.approx(theta0, rel=1e-15)
+    # the memory is in milliseconds: doubling the sampling rate squares rho's root
+    _, _, rho_fast = ar1_priors(L, 0.2, 3.0, 25.0, 800.0)
+    assert rho_fast**2 == pytest.approx(np.exp(-0.1), rel=RTOL)
+
+
+def test_ar1_priors_long_time_constant_keeps_q_exact():
+    # 1 - rho^2 by expm1: at tau = 1e6 samples q keeps every digit (1 - rho^2 would lose ten)
+    from skf_ref import ar1_priors
+
+    L = np.random.default_rng(5).standard_normal((4, 6))
+    theta0, q, rho = ar1_priors(L, 1.0, 0.0, time_constant_ms=1e6, sfreq=1000.0)
+    assert q / theta0 == pytest.approx(2e-6, rel=1e-6)
+    assert q / theta0 == pytest.approx(-np.expm1(-2e-6), rel=1e-15)
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, match",
+    [
+        (dict(time_constant_ms=0.0), ValueError, "time_constant_ms must be > 0, got 0.0"),
+        (dict(time_constant_ms=-5.0), ValueError, "time_constant_ms must be > 0, got -5.0"),
+        (dict(time_constant_ms=np.inf), ValueError, "time_constant_ms must be finite"),
+        (dict(time_constant_ms="20"), TypeError, "time_constant_ms must be a real number"),
+        (dict(time_constant_ms="auto"), ValueError, "time_constant_ms='auto'.*skf_ref.tune's"),
+        (dict(sfreq=0.0), ValueError, "sfreq must be > 0, got 0.0"),
+        (dict(sfreq=None), TypeError, "sfreq must be a real number, got None"),
+        (dict(pm_snr_db="auto"), ValueError, "ar1_priors takes numbers, got pm_snr_db='auto'"),
+        (dict(noise_std=0.0), ValueError, "noise_std must be > 0"),
+        (dict(convention="units"), ValueError, "convention must be one of"),
+    ],
+)
+def test_ar1_priors_invalid_inputs(kwargs, error, match):
+    from skf_ref import ar1_priors
+
+    given = dict(L=L_OK, noise_std=0.1, pm_snr_db=0.0, time_constant_ms=20.0, sfreq=500.0)
+    with pytest.raises(error, match=match):
+        ar1_priors(**{**given, **kwargs})

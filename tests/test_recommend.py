@@ -100,11 +100,16 @@ def test_the_routes_that_know_the_orientations_default_to_the_rules_standardizat
     routes = (skf_ref.apply_skf, skf_ref.apply_skf_epochs, skf_ref.apply_skf_raw)
     for function in (*routes, skf_ref.SKFOperator.reconstruct):  # the operator decides:
         assert default(function, "standardize") is None, function.__qualname__
-    assert default(skf_ref.make_skf_operator, "ep_snr_db") == 0.0
+    # EP-SNR not given (None): the random walk at DEFAULT_EP_SNR_DB, 0 dB (a time constant
+    # given instead is the AR(1) prior)
+    from skf_ref.method._priors import DEFAULT_EP_SNR_DB
+
+    assert default(skf_ref.make_skf_operator, "ep_snr_db") is None and DEFAULT_EP_SNR_DB == 0.0
+    assert default(skf_ref.make_skf_operator, "time_constant_ms") is None
     assert default(skf_ref.make_skf_operator, "pm_snr_db") == 0.0
     assert default(run_demo, "ep_snr_db") == 0.0 and default(run_demo, "pm_snr_db") == 0.0
     commands = build_parser()._subparsers._group_actions[0].choices
-    for command in ("demo", "reconstruct"):
+    for command, ep in (("demo", 0.0), ("reconstruct", None)):  # None: 0 dB, as above
         priors = [commands[command].get_default(k) for k in ("pm_snr_db", "ep_snr_db")]
-        assert priors == [0.0, 0.0], command
+        assert priors == [0.0, ep], command
     assert commands["demo"].get_default("standardize") == "position"

@@ -27,6 +27,7 @@ from skf_ref.method._paths import dense
 EQUALITY_RTOL = 1e-8
 CONDITION_FACTOR = 1e3
 QUANTITIES = ("z", "x", "z_filtered", "x_filtered", "weights")
+SMOOTHERS = (None, "rts-standardized", "rts-state", "rts-smoothed-weights")
 
 
 def relative(a, b):
@@ -83,14 +84,18 @@ def models(draw):
         ep_snr_db=draw(st.sampled_from([-20.0, 0.0, 20.0, 40.0])),
         n_steps=T,
     )
+    q, transition = draw(st.sampled_from([0.0, q])), draw(st.sampled_from([1.0, 0.8, -0.5]))
+    if draw(st.booleans()):  # the stationary AR(1) prior (ar1_priors): rho in (0, 1]
+        transition = draw(st.one_of(st.just(1.0), st.floats(1e-3, 1.0, exclude_max=True)))
+        q = -np.expm1(2 * np.log(transition)) * theta0  # (1 - rho^2) theta0
     return dict(
         L=L,
         Y=Y,
         theta0=theta0,
-        q=draw(st.sampled_from([0.0, q])),
-        transition=draw(st.sampled_from([1.0, 0.8, -0.5])),
+        q=q,
+        transition=transition,
         exponent=draw(st.sampled_from([0.0, 0.5, 1.0, 1.25, 1.5, 2.0])),
-        smoother=draw(st.sampled_from([None, "rts-standardized", "rts-state"])),
+        smoother=draw(st.sampled_from(SMOOTHERS)),
         **noise,
     )
 

@@ -99,13 +99,17 @@ def long_models(draw):
         ep_snr_db=draw(st.sampled_from([-20.0, 0.0, 20.0, 40.0])),
         n_steps=draw(st.sampled_from([10, 100])),
     )
+    transition = draw(st.sampled_from([1.0, 0.9, -0.5, 1.1]))
+    if draw(st.booleans()):  # the stationary AR(1) prior (ar1_priors), rho in (0, 1)
+        transition = draw(st.floats(1e-3, 1.0, exclude_max=True))
+        q = -np.expm1(2 * np.log(transition)) * theta0  # (1 - rho^2) theta0
     return dict(
         L=L,
         Y=sigma * 3 * np.cumsum(rng.standard_normal((m, T)), axis=1),
         noise_std=sigma,
         theta0=theta0,
         q=q,
-        transition=draw(st.sampled_from([1.0, 0.9, -0.5, 1.1])),
+        transition=transition,
         exponent=draw(st.sampled_from([0.0, 0.5, 1.0, 1.25, 1.5, 2.0])),
         smoother=draw(st.sampled_from(SMOOTHERS)),
     )

@@ -179,10 +179,11 @@ def test_a_fixed_snr_never_warns():
 
 def test_choose_priors_passes_the_criterion_and_warns_at_its_caller():
     L, Y = state_space_data(2, T=60)
-    theta0, q, result = skf_ref.method._tuning.choose_priors(
+    theta0, q, transition, result = skf_ref.method._tuning.choose_priors(
         L, Y, noise_std=0.5, pm_snr_db=10.0, ep_snr_db="auto", criterion="discrepancy"
     )
     assert result.criterion == "discrepancy" and (theta0, q) == (result.theta0, result.q)
+    assert transition == result.transition == 1.0
     assert result.residual_energy == pytest.approx(Y.size, rel=DISCREPANCY_RTOL)
     with pytest.warns(UserWarning, match="pm_snr_db = -20.00 dB lies on the lower") as record:
         skf_ref.method._tuning.choose_priors(
@@ -209,7 +210,7 @@ def test_a_fixed_snr_and_auto_everywhere(mne_setup):
     L, Y = state_space_data(3, T=60)
     fixed = tune(L, Y, noise_std=0.5, pm_snr_db=0.0, grid=9)
     assert fixed.pm_snr_db == 0.0 and fixed.landscape.shape == (9, 5)
-    theta0, q, _ = skf_ref.method._tuning.choose_priors(
+    theta0, q, _, _ = skf_ref.method._tuning.choose_priors(
         L, Y, noise_std=0.5, pm_snr_db=0.0, ep_snr_db="auto"
     )
     assert (theta0, q) == pytest.approx((fixed.theta0, fixed.q), rel=1e-6)

@@ -243,7 +243,7 @@ def case_matrices(case, skf):
         return value * np.eye(k) if np.ndim(value) == 0 else np.asarray(value)
 
     theta0, q = p["theta0"], p["q"]
-    if "convention" in e:  # an implementation that computes its own priors
+    if "ep_snr_db" in e:  # an implementation that computes its own priors (the random walk's)
         theta0, q = skf.priors(
             L, e["noise_std"], e["pm_snr_db"], e["ep_snr_db"], case.shape[1], e["convention"]
         )

@@ -14,6 +14,7 @@ __all__ = [
     "add_skf_options",
     "db",
     "integer",
+    "milliseconds",
     "nonnegative",
     "positive",
     "report_tuning",
@@ -110,6 +111,28 @@ def db(maximum: float = MAX_DB, auto: bool = False) -> Callable[[str], Any]:
     return _typed(level)
 
 
+def milliseconds() -> Callable[[str], Any]:
+    """A time constant in ms (> 0), or "auto", or a range ``LOW,HIGH`` in ms to search.
+
+    Examples
+    --------
+    >>> parse = milliseconds()
+    >>> parse("20"), parse("auto"), parse("2,200")
+    (20.0, 'auto', (2.0, 200.0))
+    """
+    from ..method._search import check_time_constant
+
+    def time_constant(text):
+        if text == "auto":
+            return text
+        parts = [_number(part.strip()) for part in text.split(",")]
+        if len(parts) > 2:
+            raise InputError(f"value must be one number, auto or LOW,HIGH, got {text!r}")
+        return check_time_constant(parts[0] if len(parts) == 1 else parts, "value")
+
+    return _typed(time_constant)
+
+
 def nonnegative(maximum: float | None = None) -> Callable[[str], float]:
     """A finite number >= 0 (and <= ``maximum``)."""
     return _typed(
@@ -144,16 +167,25 @@ def report_tuning(args: argparse.Namespace, tuning: Any) -> None:
         return
     args.searched = {"pm_snr_db": args.pm_snr_db, "ep_snr_db": args.ep_snr_db}
     args.pm_snr_db, args.ep_snr_db = tuning.pm_snr_db, tuning.ep_snr_db
+    if tuning.time_constant_ms is None:
+        evolution = f"EP-SNR {tuning.ep_snr_db:.2f} dB"
+    else:  # the AR(1) prior (skf-ref reconstruct --time-constant-ms)
+        args.searched["time_constant_ms"] = args.time_constant_ms
+        args.time_constant_ms = tuning.time_constant_ms
+        evolution = f"time constant {tuning.time_constant_ms:.3g} ms"
     args.tuned = True
     print(
-        f"priors chosen by the data: PM-SNR {tuning.pm_snr_db:.2f} dB, EP-SNR "
-        f"{tuning.ep_snr_db:.2f} dB (log-likelihood {tuning.log_likelihood:.6g})",
+        f"priors chosen by the data: PM-SNR {tuning.pm_snr_db:.2f} dB, {evolution} "
+        f"(log-likelihood {tuning.log_likelihood:.6g})",
         file=sys.stderr,
     )
 
 
-def add_skf_options(parser: Any, *, exponent: Any, smoother: Any, smoother_help: str) -> None:
-    """The SKF's options, shared by the commands that run one: priors, exponent, smoother."""
+def add_skf_options(
+    parser: Any, *, exponent: Any, smoother: Any, smoother_help: str, time_constant: bool = False
+) -> None:
+    """The SKF's options, shared by the commands that run one: priors, exponent, smoother;
+    with ``time_constant``, ``--time-constant-ms`` (the AR(1) prior) beside ``--ep-snr-db``."""
     chosen = "; or chosen by the data: auto (searched in -20..40 dB) or LOW,HIGH (e.g. -40,20)"
     parser.add_argument(
         "--pm-snr-db",
@@ -165,10 +197,21 @@ def add_skf_options(parser: Any, *, exponent: Any, smoother: Any, smoother_help:
     parser.add_argument(
         "--ep-snr-db",
         type=db(auto=True),
-        default=0.0,
+        default=None if time_constant else 0.0,
         metavar="DB",
-        help=f"EP-SNR prior (dB{chosen})",
+        help=f"EP-SNR prior of the paper's random walk (dB{chosen})"
+        + ("; default 0 dB, unless --time-constant-ms is given" if time_constant else ""),
     )
+    if time_constant:
+        parser.add_argument(
+            "--time-constant-ms",
+            type=milliseconds(),
+            metavar="MS",
+            help="instead of the random walk, the stationary AR(1) prior: the sources' time "
+            "constant in ms (rho = exp(-dt / tau), q = (1 - rho^2) theta0); or chosen by the "
+            "data: auto (searched in 1..1000 ms) or LOW,HIGH (e.g. 2,200). Not with "
+            "--ep-snr-db",
+        )
     parser.add_argument(
         "--exponent", type=nonnegative(), default=exponent, help="standardization exponent alpha"
     )

@@ -17,6 +17,7 @@ examples:
   skf-ref conformance export skf-cases                 # every case as .npz and .mat
   skf-ref conformance export skf-cases --format mat    # MATLAB and Octave only
   skf-ref conformance export skf-cases-v2 --suite 2    # version 2, as skf_ref 0.3 wrote it
+  skf-ref conformance export skf-cases-v3 --suite 3    # version 3, without the AR(1) cases
 
 Then run your implementation on each case (its inputs: L, Y, noise_cov, theta0, q,
 transition, exponent, smoother, and from version 3 standardize and n_orient; a scalar
@@ -65,10 +66,11 @@ def add_parser(subparsers: Any) -> None:
     export.add_argument(
         "--suite",
         type=int,
-        choices=(2, 3),
-        default=3,
-        help="the suite version: 3 (this skf_ref's, the default) or 2 (its files byte for "
-        "byte, as skf_ref 0.3 exported them)",
+        choices=(2, 3, 4),
+        default=4,
+        help="the suite version: 4 (this skf_ref's, the default: version 3's cases and two "
+        "of the stationary AR(1) prior), or 3 or 2 (their files byte for byte, as earlier "
+        "skf_ref exported them)",
     )
     export.add_argument("--quiet", action="store_true", help="no summary")
     export.set_defaults(run=run_export)

@@ -31,7 +31,10 @@ by the evoked's nave (an epochs file is averaged first, and says so), reduced to
 rank; and writes an MNE source estimate (.stc, .h5) or arrays (.npz). The array route
 (--leadfield/--data) runs skf_ref.reconstruct on the arrays as they are (rows matched by
 name when both files name them) and writes .npz. The priors are numbers in dB, or chosen
-by the data: auto, or a range to search, e.g. --pm-snr-db -40,20. Beside the output,
+by the data: auto, or a range to search, e.g. --pm-snr-db -40,20. --time-constant-ms
+replaces the paper's random walk (--ep-snr-db) by the stationary AR(1) prior with that
+time constant (or auto), at the evoked's sampling rate (--sfreq on the array route,
+unless the data file is MNE's). Beside the output,
 NAME.json records every setting, the nave, the channels used and left out, and the
 package versions.
 """
@@ -87,6 +90,13 @@ def add_parser(subparsers: Any) -> None:
         smoother=RECOMMENDED_SETTING["smoother"] or "none",
         smoother_help="RTS smoother (the paper's setting: --exponent 1.25 --smoother "
         "rts-standardized)",
+        time_constant=True,
+    )
+    model.add_argument(
+        "--sfreq",
+        type=positive(),
+        help="array route: the data's sampling rate in Hz, for --time-constant-ms (default: "
+        "the data file's, when it is MNE's); the MNE route takes the evoked's",
     )
     model.add_argument(
         "--standardize",
@@ -162,6 +172,20 @@ def _route(args):
     for flag in ("meg", "eeg"):
         if getattr(args, flag) is not None and not mne_route:
             raise InputError(f"argument --{flag}: channel types are picked on the MNE route only")
+    if args.sfreq is not None and mne_route:
+        raise InputError(
+            "argument --sfreq: the MNE route takes the sampling rate from the evoked's info; "
+            "--sfreq is for the array route (--leadfield/--data)"
+        )
+    if args.ep_snr_db is not None and args.time_constant_ms is not None:
+        raise InputError(
+            "argument --time-constant-ms: give --ep-snr-db (the paper's random walk) or "
+            "--time-constant-ms (the stationary AR(1) prior), not both"
+        )
+    if args.time_constant_ms is None and args.ep_snr_db is None:
+        from ..method._priors import DEFAULT_EP_SNR_DB
+
+        args.ep_snr_db = DEFAULT_EP_SNR_DB  # the paper's random walk, at 0 dB
     _check_outputs(args)
     if args.standardize is None and not mne_route:  # an array does not say which columns
         args.standardize = "column"  # form a position; the MNE route's operator decides
@@ -249,8 +273,8 @@ def _settings(args, route, extra):
     from .._utils.provenance import machine
 
     keys = (
-        *("pm_snr_db", "ep_snr_db", "exponent", "smoother", "standardize", "n_orient"),
-        *("method", "pick_ori", "meg", "eeg"),
+        *("pm_snr_db", "ep_snr_db", "time_constant_ms", "sfreq"),
+        *("exponent", "smoother", "standardize", "n_orient", "method", "pick_ori", "meg", "eeg"),
     )
     files = ("forward", "evoked", "condition", "leadfield", "data", "key", "noise_cov")
     return {
@@ -333,6 +357,7 @@ def _mne_route(args):
             noise_std=args.noise_std,
             pm_snr_db=args.pm_snr_db,
             ep_snr_db=args.ep_snr_db,
+            time_constant_ms=args.time_constant_ms,
             **types,
             verbose=False,
         )
@@ -355,6 +380,8 @@ def _mne_route(args):
         verbose=False,
     )
     report_tuning(args, rec.tuning)
+    if args.time_constant_ms is not None:
+        args.sfreq = evoked.info["sfreq"]  # what the time constant was taken at
     args.standardize = rec.settings["standardize"]  # the operator's default, if not given
     args.channels = {"used": operator.ch_names, "left_out": operator.dropped}
     if not args.quiet:
@@ -388,9 +415,17 @@ def _array_route(args):
     if args.average_reference:
         L, Y = L - L.mean(axis=0), Y - Y.mean(axis=0)
     noise = _array_noise(args, recording, Y)
+    if args.time_constant_ms is not None:
+        args.sfreq = _array_sfreq(args, recording)
     try:
-        theta0, q, tuning = choose_priors(
-            L, Y, **noise, pm_snr_db=args.pm_snr_db, ep_snr_db=args.ep_snr_db
+        theta0, q, transition, tuning = choose_priors(
+            L,
+            Y,
+            **noise,
+            pm_snr_db=args.pm_snr_db,
+            ep_snr_db=args.ep_snr_db,
+            time_constant_ms=args.time_constant_ms,
+            sfreq=args.sfreq,
         )
     except InputError as err:
         raise _about_noise_cov(args, err) from err
@@ -401,6 +436,7 @@ def _array_route(args):
         **noise,
         theta0=theta0,
         q=q,
+        transition=transition,
         exponent=args.exponent,
         smoother=None if args.smoother == "none" else args.smoother,
         method=args.method,
@@ -409,6 +445,18 @@ def _array_route(args):
     )
     args.channels = {"used": recording.ch_names or L.shape[0]}
     return rec, None, recording.times, leadfield.positions
+
+
+def _array_sfreq(args, recording):
+    """The sampling rate of the array route's data: --sfreq, else the MNE file's."""
+    if args.sfreq is not None:
+        return args.sfreq
+    if recording.evoked is not None:
+        return float(recording.evoked.info["sfreq"])
+    raise InputError(
+        f"argument --time-constant-ms: needs the data's sampling rate, and {args.data} does "
+        "not say it: give --sfreq (Hz)"
+    )
 
 
 def _n_orient(args, L, positions):

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..method import priors_from_snr
+from ..method import ar1_priors, priors_from_snr
 
 __all__ = ["N_TIMES", "SPECS"]
 
@@ -278,3 +278,45 @@ def _diagonal_transition_below_one(rng):
     A = np.diag([0.95, 0.5, 0.9, 0.8, 0.7])
     inputs = dict(L=L, Y=Y, noise_cov=0.04, theta0=1.0, q=0.4, transition=A)
     return inputs | dict(exponent=1.5, smoother="rts-standardized")
+
+
+def _ar1(rng, L, noise_std, pm_snr_db, time_constant_ms, sfreq, n_times):
+    """Priors of the stationary AR(1) prior and data drawn from it (sources of variance
+    ``theta0`` at every step, white noise of ``noise_std``)."""
+    theta0, q, rho = ar1_priors(L, noise_std, pm_snr_db, time_constant_ms, sfreq)
+    X = np.empty((L.shape[1], n_times))
+    X[:, 0] = np.sqrt(theta0) * rng.standard_normal(L.shape[1])
+    for t in range(1, n_times):
+        X[:, t] = rho * X[:, t - 1] + np.sqrt(q) * rng.standard_normal(L.shape[1])
+    Y = L @ X + noise_std * rng.standard_normal((L.shape[0], n_times))
+    about = dict(pm_snr_db=float(pm_snr_db), convention="gain", noise_std=noise_std)
+    about |= dict(time_constant_ms=float(time_constant_ms), sfreq=float(sfreq))
+    return dict(L=L, Y=Y, noise_cov=noise_std**2, theta0=theta0, q=q, transition=rho) | about
+
+
+@_case(
+    "ar1_prior",
+    18,
+    "The stationary AR(1) prior (docs/model.md §4, beyond the paper): A = rho I with rho = "
+    "exp(-dt / tau), q = (1 - rho^2) theta0 and theta0 from PM-SNR 0 dB (gain convention), "
+    "tau = 20 ms at 500 Hz; two positions of three orientations standardized as wholes, no "
+    "smoother, the setting the study's rule chose.",
+    "stationary AR(1) prior from PM-SNR 0 dB and a time constant of 20 ms at 500 Hz",
+)
+def _ar1_prior(rng):
+    L = 100.0 * rng.standard_normal((8, 6))  # SI units, as priors_gain
+    inputs = _ar1(rng, L, 1e-7, 0.0, 20.0, 500.0, n_times=20)
+    return inputs | dict(exponent=0.5, smoother=None, standardize="position", n_orient=3)
+
+
+@_case(
+    "ar1_prior_smoothed",
+    19,
+    "The stationary AR(1) prior with PM-SNR 10 dB and tau = 5 ms at 1000 Hz (rho = exp(-0.2)), "
+    "and the paper's smoother over the standardized sequence, whose gains hold A.",
+    "stationary AR(1) prior from PM-SNR 10 dB and a time constant of 5 ms at 1000 Hz",
+)
+def _ar1_prior_smoothed(rng):
+    L = rng.standard_normal((6, 5))
+    inputs = _ar1(rng, L, 0.2, 10.0, 5.0, 1000.0, n_times=N_TIMES)
+    return inputs | dict(exponent=1.25, smoother="rts-standardized")

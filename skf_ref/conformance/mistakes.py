@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..method import StateSpaceModel, priors_from_snr
+from ..method import StateSpaceModel, ar1_priors, priors_from_snr
 from ..method._outputs import ARRAYS
 from ..method._paths import dense
 from ..method._priors import CONVENTIONS
@@ -229,15 +229,21 @@ def other_smoother(case: Case) -> dict[str, Any] | None:
 
 
 def other_convention(case: Case) -> dict[str, Any] | None:
-    """The priors of §3.1 eqs. (8)-(10) with the other amplitude (docs/model.md §4)."""
+    """The priors of §3.1 eqs. (8)-(10) with the other amplitude (docs/model.md §4), or
+    those of the stationary AR(1) prior (:func:`skf_ref.ar1_priors`) for its cases."""
     convention = case.extras.get("convention")
     if convention is None:
         return None
     other = [name for name in CONVENTIONS if name != convention][0]
-    e = case.extras
-    theta0, q = priors_from_snr(
-        case.inputs["L"], e["noise_std"], e["pm_snr_db"], e["ep_snr_db"], case.shape[1], other
-    )
+    e, L = case.extras, case.inputs["L"]
+    if "time_constant_ms" in e:  # the AR(1) prior: its transition is the case's
+        theta0, q, _ = ar1_priors(
+            L, e["noise_std"], e["pm_snr_db"], e["time_constant_ms"], e["sfreq"], other
+        )
+    else:
+        theta0, q = priors_from_snr(
+            L, e["noise_std"], e["pm_snr_db"], e["ep_snr_db"], case.shape[1], other
+        )
     return _rerun(case, theta0=theta0, q=q)
 
 
@@ -271,9 +277,19 @@ def transition_ignored(case: Case) -> dict[str, Any] | None:
     return _rerun(case, transition=1.0)
 
 
+def _first_prediction_unseen(case: Case) -> bool:
+    """Whether ``A P_0 A^T + Q = P_0`` (to 1e-12): the stationary AR(1) prior's first step
+    (:func:`skf_ref.ar1_priors`), where one prediction more or less before ``t = 1`` changes
+    nothing, and a mistake in it cannot show."""
+    _, _, A, Q, P0 = _matrices(_model(case)[0])
+    return bool(np.allclose(A @ P0 @ A.T + Q, P0, rtol=1e-12, atol=0.0))
+
+
 def no_first_prediction(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (4) skipped at ``t = 1``: update, then predict, so ``P_{1|0} = P_0``."""
     if _block(case) > 1:  # a mistake in the standardization of each column on its own
+        return None
+    if _first_prediction_unseen(case):
         return None
     model, Y = _model(case)
     L, R, A, Q, P0 = _matrices(model)
@@ -302,6 +318,8 @@ def no_first_prediction(case: Case) -> dict[str, Any] | None:
 
 def extra_first_prediction(case: Case) -> dict[str, Any] | None:
     """§2.2 eq. (4) applied twice before ``t = 1``: ``P_{1|0} = A (A P_0 A^T + Q) A^T + Q``."""
+    if _first_prediction_unseen(case):
+        return None
     model, _ = _model(case)
     _, _, A, Q, P0 = _matrices(model)
     return _rerun(case, theta0=A @ P0 @ A.T + Q)

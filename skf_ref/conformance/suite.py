@@ -1,13 +1,14 @@
 """The pinned suite: the committed case files, their manifest and checksums, and export.
 
 Version :data:`~skf_ref.conformance.CONFORMANCE_VERSION` of the suite is a folder of files
-in the package, ``suite_v3/``: each case as ``.npz`` and MATLAB v5 ``.mat``, and
+in the package, ``suite_v4/``: each case as ``.npz`` and MATLAB v5 ``.mat``, and
 ``manifest.json`` with the sha256 of every file. They were written once by :func:`build`
 and never change: :func:`export` copies them byte for byte, and :func:`cases` reads them, so
 a later ``skf_ref`` cannot change what the suite expects. A test recomputes every case
 with the installed package and fails when it drifts from the pinned outputs beyond a case's
 tolerance. A changed case is a new suite version in a new folder; the earlier pinned
-version, ``suite_v2/``, stays, and :func:`export` copies it on request (``suite=2``).
+versions, ``suite_v2/`` and ``suite_v3/``, stay, and :func:`export` copies them on request
+(``suite=2``, ``suite=3``).
 
 The runners, ``runners/run_cases.py`` and ``runners/run_cases.m``, run an implementation
 on every case and save its outputs for ``skf-ref compare``; :func:`export` copies them
@@ -55,7 +56,9 @@ __all__ = [
 ]
 
 #: The folder of each pinned version of the suite, inside the installed package.
-SUITES = {v: Path(__file__).resolve().with_name(f"suite_v{v}") for v in (2, CONFORMANCE_VERSION)}
+SUITES = {
+    v: Path(__file__).resolve().with_name(f"suite_v{v}") for v in (2, 3, CONFORMANCE_VERSION)
+}
 #: The folder of the pinned suite, this version's.
 SUITE = SUITES[CONFORMANCE_VERSION]
 #: The runner examples :func:`export` copies beside the cases (MATLAB/Octave and Python).
@@ -105,8 +108,8 @@ def manifest(suite: int = CONFORMANCE_VERSION) -> dict[str, Any]:
 
     Examples
     --------
-    >>> manifest()["conformance_version"], manifest(suite=2)["conformance_version"]
-    (3, 2)
+    >>> manifest()["conformance_version"], manifest(suite=3)["conformance_version"]
+    (4, 3)
     >>> sorted(manifest()["cases"][0]["files"])
     ['original_skf.mat', 'original_skf.npz']
     """
@@ -115,14 +118,20 @@ def manifest(suite: int = CONFORMANCE_VERSION) -> dict[str, Any]:
 
 
 @cache
-def _pinned_cases():
+def _pinned_cases(suite: int = CONFORMANCE_VERSION) -> tuple[Case, ...]:
     return tuple(
-        read_case(SUITE / f"{entry['name']}.npz") for entry in _pinned_manifest()["cases"]
+        read_case(SUITES[suite] / f"{entry['name']}.npz")
+        for entry in _pinned_manifest(suite)["cases"]
     )
 
 
-def cases() -> list[Case]:
+def cases(suite: int = CONFORMANCE_VERSION) -> list[Case]:
     """The suite's cases, read from its pinned files (once per process).
+
+    Parameters
+    ----------
+    suite : int
+        The suite version (``SUITES``); this version's by default.
 
     Returns
     -------
@@ -134,8 +143,10 @@ def cases() -> list[Case]:
     ['original_skf', 'free_orientation', 'average_reference']
     >>> cases()[0].shape, cases()[0].skf_ref_version
     ((4, 7), '0.3.0')
+    >>> len(cases(suite=3)), [case.name for case in cases()][17:]
+    (17, ['ar1_prior', 'ar1_prior_smoothed'])
     """
-    return list(_pinned_cases())
+    return list(_pinned_cases(_checked_suite(suite)))
 
 
 def verify(directory: str | os.PathLike = SUITE, suite: int = CONFORMANCE_VERSION) -> list[str]:
@@ -266,8 +277,8 @@ def export(
         Created if missing.
     formats : sequence of {"npz", "mat"}
     suite : int
-        The suite version (``SUITES``): this version's by default; ``2`` copies
-        version 2's files, byte for byte as earlier packages exported them.
+        The suite version (``SUITES``): this version's by default; ``2`` or ``3`` copies
+        that version's files, byte for byte as earlier packages exported them.
 
     Returns
     -------

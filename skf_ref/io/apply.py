@@ -18,6 +18,7 @@ from typing import Any
 from .._utils.checks import InputError, InputTypeError, check_choice, check_instance, describe
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
+from ..method._search import check_time_constant
 from .make_operator import make_skf_operator
 from .noise_cov import baseline_covariance
 from .operator import SKFOperator
@@ -66,6 +67,7 @@ def apply_skf(
     noise_std: float | dict[str, float] | None = None,
     pm_snr_db: Any = None,
     ep_snr_db: Any = None,
+    time_constant_ms: Any = None,
     exponent: float = 0.5,
     smoother: str | None = None,
     pick_ori: str | None = None,
@@ -138,6 +140,14 @@ def apply_skf(
         whitened lead field), default 0 and 0 dB. ``"auto"`` or a range ``(low, high)``:
         chosen by the marginal likelihood of the data (``"auto"``: -20 to 40 dB); the
         reconstruction's ``tuning`` says what was chosen.
+    time_constant_ms : float or "auto" or (float, float), optional
+        The stationary AR(1) prior (:func:`skf_ref.ar1_priors`) in place of the EP-SNR's
+        random walk: the sources' time constant in ms, the sampling step from the evoked's
+        ``info["sfreq"]``; ``"auto"`` or a range ``(low, high)`` in ms: chosen by the
+        marginal likelihood in ``log(tau)`` (``"auto"``: 1 to 1000 ms), logged and in the
+        reconstruction's ``tuning``. Without an operator, give it or ``ep_snr_db``, not
+        both; with an operator it replaces the operator's evolution prior for this evoked
+        (the PM-SNR stays the operator's). Default None: the operator's, or the random walk.
     exponent : float
         Standardization exponent alpha, >= 0.
     smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
@@ -175,7 +185,10 @@ def apply_skf(
     with verbosity(verbose):
         _check_evoked(evoked)
         check_choice("pick_ori", pick_ori, PICK_ORIS)
+        override = isinstance(forward, SKFOperator)  # else the operator made here holds it
         snrs = dict(pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db)
+        if not override:
+            snrs["time_constant_ms"] = time_constant_ms
         operator = _operator(
             evoked, forward, noise_cov, noise_std, snrs, dict(meg=meg, eeg=eeg), verbose
         )
@@ -193,6 +206,8 @@ def apply_skf(
             smoother=smoother,
             method=method,
             standardize=standardize,
+            time_constant_ms=time_constant_ms if override else None,
+            sfreq=evoked.info["sfreq"],
         )
         stc = operator.to_stc(rec, evoked.times[0], 1.0 / evoked.info["sfreq"], pick_ori)
     return (stc, rec) if return_reconstruction else stc
@@ -208,6 +223,7 @@ def apply_skf_epochs(
     method: str = "auto",
     standardize: str | None = None,
     nave: float = 1,
+    time_constant_ms: Any = None,
     return_generator: bool = False,
     verbose: bool | str | int | None = None,
 ) -> list[Any] | Iterator[Any]:
@@ -234,6 +250,11 @@ def apply_skf_epochs(
     nave : float
         The trials each epoch averages, as ``apply_inverse_epochs`` takes it: 1 (single
         trials) unless the epochs hold averages.
+    time_constant_ms : float or "auto" or (float, float), optional
+        The stationary AR(1) prior (:func:`skf_ref.ar1_priors`) in place of the operator's
+        evolution prior, the sampling step from the epochs' ``info["sfreq"]``
+        (:meth:`skf_ref.SKFOperator.reconstruct`; ``"auto"`` is chosen on each epoch).
+        Default None: the operator's.
     return_generator : bool
         Return a generator that computes an estimate when asked for, not a list.
     verbose : bool or str or int, optional
@@ -250,9 +271,12 @@ def apply_skf_epochs(
     operator.check_pick_ori(pick_ori)
     if not isinstance(return_generator, bool):
         raise InputTypeError(f"return_generator must be a bool, got {describe(return_generator)}")
+    if time_constant_ms is not None:  # refused now, not at the first epoch
+        time_constant_ms = check_time_constant(time_constant_ms)
     settings: dict[str, Any] = dict(
         exponent=exponent, smoother=smoother, method=method, standardize=standardize, nave=nave
     )
+    settings |= dict(time_constant_ms=time_constant_ms, sfreq=epochs.info["sfreq"])
     tmin, tstep = float(epochs.times[0]), 1.0 / epochs.info["sfreq"]
     with verbosity(verbose):
         check = operator.check_info(epochs.info, "epochs")

@@ -29,7 +29,9 @@ depend on the data, done once (:func:`make_skf_operator`):
    with that basis), kept for the next data set of that length. The priors come from
    PM-SNR and EP-SNR on the whitened lead field (docs/model.md §4): ``q`` depends on the
    number of samples; ``"auto"`` or a search range on the data (chosen again for each
-   data set).
+   data set). Or, with a time constant, from PM-SNR and the stationary AR(1) prior
+   (:func:`skf_ref.ar1_priors`), whose ``q`` and transition depend on the data's sampling
+   rate only.
 """
 
 from __future__ import annotations
@@ -39,6 +41,8 @@ from typing import Any
 from .._utils.checks import InputTypeError, describe
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
+from ..method._priors import DEFAULT_EP_SNR_DB
+from ..method._search import check_one_evolution_prior, check_time_constant
 from .channels import channel_types, has_average_reference_projector, pick_channels
 from .noise_cov import ad_hoc_covariance, check_noise_covariance, given_covariance
 from .operator import SKFOperator, check_prior
@@ -53,7 +57,8 @@ def make_skf_operator(
     *,
     noise_std: float | dict[str, float] | None = None,
     pm_snr_db: Any = 0.0,
-    ep_snr_db: Any = 0.0,
+    ep_snr_db: Any = None,
+    time_constant_ms: Any = None,
     meg: bool | str | None = None,
     eeg: bool | None = None,
     rank: Any = None,
@@ -89,7 +94,14 @@ def make_skf_operator(
         and 0 dB (the study's rule, validation/report/REPORT.md). ``"auto"``
         or a range ``(low, high)`` in dB: chosen from each data set the operator is
         applied to by the marginal likelihood (:func:`skf_ref.tune`; ``"auto"`` searches
-        -20 to 40 dB).
+        -20 to 40 dB). ``ep_snr_db`` None (not given): 0 dB for the paper's random walk.
+    time_constant_ms : float or "auto" or (float, float), optional
+        In place of the EP-SNR's random walk, the stationary AR(1) prior
+        (:func:`skf_ref.ar1_priors`): the sources' time constant in ms, ``rho =
+        exp(-dt / tau)`` with ``dt`` from the data's ``info["sfreq"]``; ``"auto"`` or a
+        range ``(low, high)`` in ms: chosen from each data set by the marginal likelihood in
+        ``log(tau)`` (``"auto"`` searches 1 to 1000 ms). Give it or ``ep_snr_db``, not
+        both. Default None: the random walk.
     meg : None or bool or "mag" or "grad"
         MEG channels: None (default) uses them when the info, the forward and the noise
         covariance share them; True asks for them; ``"mag"`` or ``"grad"`` for one kind
@@ -134,7 +146,13 @@ def make_skf_operator(
         if not isinstance(forward, mne.Forward):
             raise InputTypeError(f"forward must be an mne.Forward, got {describe(forward)}")
         channel_types(meg, eeg)
-        pm, ep = check_prior("pm_snr_db", pm_snr_db), check_prior("ep_snr_db", ep_snr_db)
+        check_one_evolution_prior(ep_snr_db, time_constant_ms)
+        pm, tau = check_prior("pm_snr_db", pm_snr_db), None
+        if time_constant_ms is not None:
+            ep, tau = None, check_time_constant(time_constant_ms)
+        else:  # the random walk, at EP-SNR 0 dB unless given
+            given = DEFAULT_EP_SNR_DB if ep_snr_db is None else ep_snr_db
+            ep = check_prior("ep_snr_db", given)
         covariance = given_covariance(noise_cov, noise_std)
         used, dropped = pick_channels(info, forward, covariance, meg, eeg)
         picked = mne.pick_info(info, [info.ch_names.index(name) for name in used])
@@ -163,6 +181,7 @@ def make_skf_operator(
             fixed=fixed,
             pm=pm,
             ep=ep,
+            time_constant=tau,
         )
         logger.debug("    %r", operator)
     return operator

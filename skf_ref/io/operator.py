@@ -13,7 +13,7 @@ from __future__ import annotations
 import collections
 import html
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -28,16 +28,20 @@ from .._utils.checks import (
     check_real,
     describe,
 )
+from .._utils.log import logger
 from .._utils.precision import zero_tolerance
 from ..method import (
     Reconstruction,
     SpectralBasis,
     SpectralModel,
     StateSpaceModel,
+    TuneResult,
+    ar1_priors,
     priors_from_snr,
     reconstruct,
 )
 from ..method._model import missing_steps
+from ..method._search import TimeConstant, check_time_constant
 from ..method._settings import check_gaps, check_settings
 from ..method._tuning import choose_priors
 from .channels import (
@@ -86,12 +90,26 @@ def check_prior(name: str, value: Any) -> Prior:
     return (low, high)
 
 
-def _describe_prior(value: Prior) -> str:
+def _describe_prior(value: Prior | None, unit: str = "dB") -> str:
+    if value is None:
+        return "none"
     if isinstance(value, str):
         return value
     if isinstance(value, tuple):
-        return f"searched in ({value[0]:g}, {value[1]:g}) dB"
-    return f"{value:g} dB"
+        return f"searched in ({value[0]:g}, {value[1]:g}) {unit}"
+    return f"{value:g} {unit}"
+
+
+def _describe_tuning(tuning: TuneResult) -> str:
+    """What ``"auto"`` chose, for the log."""
+    if tuning.time_constant_ms is None:
+        evolution = f"EP-SNR {tuning.ep_snr_db:.2f} dB"
+    else:
+        evolution = f"time constant {tuning.time_constant_ms:.3g} ms"
+    return (
+        f"PM-SNR {tuning.pm_snr_db:.2f} dB, {evolution} (log-likelihood "
+        f"{tuning.log_likelihood:.6g})"
+    )
 
 
 @dataclass(frozen=True)
@@ -132,7 +150,12 @@ class SKFOperator:
     fixed : bool
         Whether the forward has fixed orientations (one column per position).
     pm, ep : float or "auto" or (float, float)
-        The priors PM-SNR and EP-SNR in dB, or ranges to search on each data set.
+        The priors PM-SNR and EP-SNR in dB, or ranges to search on each data set; ``ep``
+        None with ``time_constant``.
+    time_constant : float or "auto" or (float, float), optional
+        The stationary AR(1) prior's time constant in ms (:func:`skf_ref.ar1_priors`) in
+        place of the EP-SNR's random walk, or a range to search; None (default): the
+        random walk.
 
     Attributes
     ----------
@@ -157,8 +180,13 @@ class SKFOperator:
         Each channel's type (``"mag"``, ``"grad"``, ``"eeg"``).
     eeg_names : list of str
         The EEG channels among them: the whitener gives them the average reference.
-    pm_snr_db, ep_snr_db : float or "auto" or (float, float)
-        The priors (docs/model.md §4): a number in dB, or searched on each data set.
+    pm_snr_db : float or "auto" or (float, float)
+        The PM-SNR (docs/model.md §4): a number in dB, or searched on each data set.
+    ep_snr_db : float or "auto" or (float, float) or None
+        The EP-SNR of the paper's random walk, likewise; None with a time constant.
+    time_constant_ms : float or "auto" or (float, float) or None
+        The time constant of the stationary AR(1) prior (ms, :func:`skf_ref.ar1_priors`):
+        a number, or searched on each data set in ``log(tau)``; None for the random walk.
     """
 
     def __init__(
@@ -171,19 +199,20 @@ class SKFOperator:
         forward: Any,
         fixed: bool,
         pm: Prior,
-        ep: Prior,
+        ep: Prior | None,
+        time_constant: TimeConstant | None = None,
     ) -> None:
         self.info, self.ch_names, self.dropped = info, list(ch_names), dropped
         self.whitener, self.rank, self.forward = whitener, len(whitener), forward
         self.n_components = 1 if fixed else 3
-        self.pm_snr_db, self.ep_snr_db = pm, ep
+        self.pm_snr_db, self.ep_snr_db, self.time_constant_ms = pm, ep, time_constant
         leadfield = whitener @ np.asarray(forward["sol"]["data"], dtype=float)
         if not np.all(np.isfinite(leadfield)):
             raise InputError("the whitened forward is not finite: noise_cov is out of range")
         self.leadfield = check_leadfield(leadfield, "the whitened forward")
         self._basis = SpectralBasis(self.leadfield, np.eye(self.rank))
         self._models: collections.OrderedDict = collections.OrderedDict()
-        self._prior_cache: dict[int, tuple[float, float]] = {}
+        self._prior_cache: dict[Any, tuple[float, float, float]] = {}
         self._layouts: dict[Any, Any] = {}
         self.ch_types = info.get_channel_types(ch_names)
         self.eeg_names = [c for c, k in zip(ch_names, self.ch_types, strict=True) if k == "eeg"]
@@ -215,16 +244,28 @@ class SKFOperator:
             "source positions": f"{self.n_sources // self.n_components} x "
             f"{self.n_components} ({'fixed' if self.n_components == 1 else 'free'} orientation)",
             "PM-SNR": _describe_prior(self.pm_snr_db),
-            "EP-SNR": _describe_prior(self.ep_snr_db),
+            **self._evolution_summary(),
             "left out": "; ".join(f"{k}: {len(v)}" for k, v in self.dropped.items()) or "none",
         }
 
+    def _evolution_summary(self) -> dict[str, str]:
+        if self.time_constant_ms is None:
+            return {"EP-SNR": _describe_prior(self.ep_snr_db)}
+        return {"time constant": _describe_prior(self.time_constant_ms, "ms")}
+
     def __repr__(self) -> str:
-        priors = ", ".join(_describe_prior(v) for v in (self.pm_snr_db, self.ep_snr_db))
+        if self.time_constant_ms is None:
+            values = (self.pm_snr_db, self.ep_snr_db)
+            priors = "PM-SNR and EP-SNR " + ", ".join(_describe_prior(v) for v in values)
+        else:
+            priors = (
+                f"PM-SNR {_describe_prior(self.pm_snr_db)}, time constant "
+                f"{_describe_prior(self.time_constant_ms, 'ms')}"
+            )
         return (
             f"<SKFOperator | {len(self.ch_names)} channels, rank {self.rank}, "
             f"{self.n_sources // self.n_components} positions x {self.n_components}, "
-            f"PM-SNR and EP-SNR {priors}>"
+            f"{priors}>"
         )
 
     def _repr_html_(self) -> str:
@@ -236,19 +277,30 @@ class SKFOperator:
         )
         return f"<table><caption>SKFOperator</caption>{rows}</table>"
 
-    def _priors(self, n_times: int) -> tuple[float, float]:
-        """``theta0, q`` of the operator's SNRs for ``n_times`` samples (docs/model.md §4)."""
-        if n_times not in self._prior_cache:
-            self._prior_cache[n_times] = priors_from_snr(
-                self.leadfield, 1.0, self.pm_snr_db, self.ep_snr_db, n_times
-            )
-        return self._prior_cache[n_times]
+    def _priors(
+        self, n_times: int, ep: Prior | None, tau: TimeConstant | None, sfreq: float
+    ) -> tuple[float, float, float]:
+        """``theta0, q, transition`` of fixed priors (docs/model.md §4): the random walk's
+        for ``n_times`` samples, or the AR(1) prior's at ``sfreq``; kept."""
+        key = ("ep", ep, n_times) if tau is None else ("tau", tau, sfreq)
+        if key not in self._prior_cache:
+            pm = cast(float, self.pm_snr_db)
+            if tau is None:
+                theta0, q = priors_from_snr(self.leadfield, 1.0, pm, cast(float, ep), n_times)
+                self._prior_cache[key] = (theta0, q, 1.0)
+            else:
+                self._prior_cache[key] = ar1_priors(
+                    self.leadfield, 1.0, pm, cast(float, tau), sfreq
+                )
+        return self._prior_cache[key]
 
-    def _model(self, n_times: int, theta0: float, q: float) -> SpectralModel:
+    def _model(self, n_times: int, theta0: float, q: float, transition: float) -> SpectralModel:
         """The spectral model for ``n_times`` samples and these priors; the last few kept."""
-        key = (n_times, theta0, q)
+        key = (n_times, theta0, q, transition)
         if key not in self._models:
-            model = StateSpaceModel.create(self.leadfield, noise_std=1.0, theta0=theta0, q=q)
+            model = StateSpaceModel.create(
+                self.leadfield, noise_std=1.0, theta0=theta0, q=q, transition=transition
+            )
             self._models[key] = SpectralModel(model, n_times, basis=self._basis)
             while len(self._models) > _MODELS_KEPT:
                 self._models.popitem(last=False)  # the least recently used
@@ -355,6 +407,8 @@ class SKFOperator:
         method: str = "auto",
         memory_limit: float | None = None,
         standardize: str | None = None,
+        time_constant_ms: float | str | tuple[float, float] | None = None,
+        sfreq: float | None = None,
     ) -> Reconstruction:
         """The SKF on data of the operator's channels (in ``ch_names`` order).
 
@@ -378,13 +432,22 @@ class SKFOperator:
             column of the forward on its own (the paper's). Default
             ``default_standardize``: ``"position"`` when the operator uses EEG (the
             setting the study chose, on EEG), ``"column"`` for MEG alone.
+        time_constant_ms : float or "auto" or (float, float), optional
+            None (default): the operator's evolution prior (``ep_snr_db`` or
+            ``time_constant_ms``). A time constant in ms, ``"auto"`` or a range: the
+            stationary AR(1) prior (:func:`skf_ref.ar1_priors`) in its place for these data,
+            the PM-SNR the operator's (``"auto"`` and a range are chosen by the marginal
+            likelihood, in ``log(tau)``; ``"auto"`` searches 1 to 1000 ms).
+        sfreq : float, optional
+            The data's sampling rate in Hz, for a time constant (default the operator's
+            ``info["sfreq"]``).
 
         Returns
         -------
         skf_ref.Reconstruction
-            In whitened units; ``tuning`` says what ``"auto"`` chose. ``z``, the weights,
-            the log-likelihood and the priors do not depend on ``nave``; ``x`` is the state
-            of the data scaled by ``sqrt(nave)`` (below).
+            In whitened units; ``tuning`` says what ``"auto"`` chose (also logged at INFO).
+            ``z``, the weights, the log-likelihood and the priors do not depend on ``nave``;
+            ``x`` is the state of the data scaled by ``sqrt(nave)`` (below).
         """
         data = check_array("data", data, (len(self.ch_names), "n_times"), finite=False)
         missing = missing_steps(data, "data")  # columns of NaN: bad segments
@@ -395,6 +458,11 @@ class SKFOperator:
         check_gaps(settings.smoother, missing)
         exponent, smoother, method = settings.exponent, settings.smoother, settings.method
         nave = check_real("nave", nave, positive=True)
+        ep, tau = self.ep_snr_db, self.time_constant_ms
+        if time_constant_ms is not None:  # the AR(1) prior in place of the operator's
+            ep, tau = None, check_time_constant(time_constant_ms)
+        rate = self.info["sfreq"] if sfreq is None else sfreq
+        rate = check_real("sfreq", rate, positive=True) if tau is not None else None
         # An average of nave trials has noise covariance C / nave: its whitener is
         # sqrt(nave) W, and its whitened lead field sqrt(nave) W L, whose priors
         # (PM-SNR, docs/model.md §4) are theta0 / nave and q / nave. That model is this
@@ -409,19 +477,23 @@ class SKFOperator:
             raise InputError("the whitened data are not finite: noise_cov is out of range")
         n, T = self.n_sources, whitened.shape[1]
         tuning = None
-        if isinstance(self.pm_snr_db, float) and isinstance(self.ep_snr_db, float):
-            theta0, q = self._priors(T)
+        if all(isinstance(v, float | None) for v in (self.pm_snr_db, ep, tau)):
+            theta0, q, transition = self._priors(T, ep, tau, cast(float, rate))
         else:
-            theta0, q, tuning = choose_priors(
+            theta0, q, transition, tuning = choose_priors(
                 self.leadfield,
                 whitened,
                 noise_std=1.0,
                 pm_snr_db=self.pm_snr_db,
-                ep_snr_db=self.ep_snr_db,
+                ep_snr_db=ep,
+                time_constant_ms=tau,
+                sfreq=rate,
             )
+            if tuning is not None:  # something was searched
+                logger.info("SKF: priors chosen by the data: %s", _describe_tuning(tuning))
         if method in ("auto", "spectral"):  # the operator's SVD (and recursions) again
             memory.check_reconstruction("spectral", smoother, n, self.rank, T, memory_limit)
-            rec = self._model(T, theta0, q).apply(
+            rec = self._model(T, theta0, q, transition).apply(
                 whitened, exponent, smoother, memory_limit, standardize, self.n_components
             )
         else:
@@ -431,6 +503,7 @@ class SKFOperator:
                 noise_std=1.0,
                 theta0=theta0,
                 q=q,
+                transition=transition,
                 exponent=exponent,
                 smoother=smoother,
                 method=method,

@@ -22,6 +22,11 @@ group ``skf_ref`` with, in format version 1:
 ``ep_snr_db``
 =================  ==================================================================
 
+Format version 2 holds an operator with the stationary AR(1) prior
+(:func:`skf_ref.ar1_priors`): ``time_constant_ms`` (a number of ms, ``"auto"``, or a range
+``[low, high]``) in place of ``ep_snr_db``, every other entry as in version 1. An operator
+with the paper's random walk is written in version 1, which every skf_ref reads.
+
 Nothing is pickled. Reading recomputes what the operator derives (the whitened lead field
 and its SVD) from the stored float64 arrays, so a read operator gives the estimates of the
 one written, bit for bit. A file of a later format version than this skf_ref reads is
@@ -41,6 +46,7 @@ import numpy as np
 from .._utils.atomic_files import atomic_path
 from .._utils.checks import InputError, InputTypeError, check_instance, describe
 from .._utils.extras import optional
+from ..method._search import check_time_constant
 from ..version import __version__
 from .operator import SKFOperator, check_prior
 
@@ -48,8 +54,9 @@ __all__ = ["OPERATOR_FORMAT", "OPERATOR_FORMAT_VERSION", "read_skf_operator", "w
 
 #: What an operator file says it holds.
 OPERATOR_FORMAT = "skf_ref.SKFOperator"
-#: The format version this skf_ref writes (and the latest it reads).
-OPERATOR_FORMAT_VERSION = 1
+#: The latest format version this skf_ref writes and reads: 2 for an operator with a time
+#: constant; one with the random walk is written as version 1.
+OPERATOR_FORMAT_VERSION = 2
 _TITLE = "skf_ref"
 
 
@@ -146,13 +153,17 @@ def write_skf_operator(fname: str | Path, operator: SKFOperator, overwrite: bool
             if not path.is_dir()
             else f"{path} is a folder: give a file name ending in .h5"
         )
+    if operator.time_constant_ms is None:  # the random walk: version 1, as before
+        held, version = {"ep_snr_db": operator.ep_snr_db}, 1
+    else:
+        held, version = {"time_constant_ms": operator.time_constant_ms}, 2
     priors = {
         name: list(value) if isinstance(value, tuple) else value
-        for name, value in (("pm_snr_db", operator.pm_snr_db), ("ep_snr_db", operator.ep_snr_db))
+        for name, value in {"pm_snr_db": operator.pm_snr_db, **held}.items()
     }
     content = {
         "format": OPERATOR_FORMAT,
-        "version": OPERATOR_FORMAT_VERSION,
+        "version": version,
         "skf_ref": __version__,
         "info": operator.info,
         "ch_names": list(operator.ch_names),
@@ -203,6 +214,10 @@ def read_skf_operator(fname: str | Path) -> SKFOperator:
         )
     gain = np.asarray(content["gain"], dtype=np.float64)
     fixed = bool(content["fixed"])
+    if "time_constant_ms" in content:  # version 2: the AR(1) prior
+        ep, tau = None, check_time_constant(content["time_constant_ms"])
+    else:
+        ep, tau = check_prior("ep_snr_db", content["ep_snr_db"]), None
     return SKFOperator(
         info=mne.Info(**content["info"]),
         ch_names=[str(name) for name in content["ch_names"]],
@@ -211,5 +226,6 @@ def read_skf_operator(fname: str | Path) -> SKFOperator:
         forward=_forward_from_bytes(content["forward_fif"], gain, fixed),
         fixed=fixed,
         pm=check_prior("pm_snr_db", content["pm_snr_db"]),
-        ep=check_prior("ep_snr_db", content["ep_snr_db"]),
+        ep=ep,
+        time_constant=tau,
     )

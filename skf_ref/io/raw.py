@@ -24,6 +24,7 @@ from .._utils.checks import (
 )
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
+from ..method._search import check_time_constant
 from .operator import SKFOperator
 
 __all__ = ["apply_skf_raw"]
@@ -44,6 +45,7 @@ def apply_skf_raw(
     memory_limit: float | None = None,
     return_reconstruction: bool = False,
     reject_by_annotation: bool = True,
+    time_constant_ms: Any = None,
     verbose: bool | str | int | None = None,
 ) -> Any:
     """The SKF along a continuous recording, as MNE's ``apply_inverse_raw``.
@@ -54,7 +56,8 @@ def apply_skf_raw(
     predicts across them without an update, so nothing inside a bad segment reaches the
     estimate elsewhere, and the estimate there is NaN (docs/model.md §2); the log says which
     segments were skipped. EP-SNR is over that sequence (docs/model.md §4: ``q`` is the
-    walk's variance over the ``stop - start`` samples), as for an evoked. The estimate is
+    walk's variance over the ``stop - start`` samples), as for an evoked; the stationary
+    AR(1) prior (``time_constant_ms``) does not depend on its length. The estimate is
     returned in memory, or, with ``out``, streamed to a zarr store one block of rows at a
     time: no (n_sources, n_times) array is ever held whole.
 
@@ -90,6 +93,11 @@ def apply_skf_raw(
         MNE's readers); ``False`` filters every sample, bad segments included. The paper's
         smoother, ``"rts-standardized"``, is undefined over missing steps: use
         ``"rts-state"``, no smoother, or ``reject_by_annotation=False``.
+    time_constant_ms : float or "auto" or (float, float), optional
+        The stationary AR(1) prior (:func:`skf_ref.ar1_priors`) in place of the operator's
+        evolution prior, the sampling step from the recording's ``info["sfreq"]``
+        (:meth:`skf_ref.SKFOperator.reconstruct`; ``"auto"`` is chosen on the samples from
+        ``start`` to ``stop``). Default None: the operator's.
     verbose : bool or str or int, optional
 
     Returns
@@ -106,6 +114,8 @@ def apply_skf_raw(
     operator.check_pick_ori(pick_ori)
     memory_limit = check_memory_limit(memory_limit)
     check_instance("reject_by_annotation", reject_by_annotation, bool, "True or False")
+    if time_constant_ms is not None:  # refused before the recording is read
+        time_constant_ms = check_time_constant(time_constant_ms)
     start = check_int("start", start, minimum=0, maximum=raw.n_times - 1)
     stop = raw.n_times if stop is None else check_int("stop", stop, maximum=raw.n_times)
     if stop <= start:
@@ -140,6 +150,8 @@ def apply_skf_raw(
             smoother=smoother,
             memory_limit=memory_limit,
             standardize=standardize,
+            time_constant_ms=time_constant_ms,
+            sfreq=raw.info["sfreq"],
         )
         tmin, tstep = float(raw.times[start]), 1.0 / raw.info["sfreq"]
         if out is None:

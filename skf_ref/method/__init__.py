@@ -4,7 +4,8 @@ The names below are the method's public API; the top level (``import skf_ref``) 
 the ones most scripts need. Its modules (leading underscore) are the implementation:
 
 - ``_model``: the state-space model and its checks (docs/model.md §1);
-- ``_priors``: PM-SNR and EP-SNR to ``theta0`` and ``q`` (§4); ``_tuning`` and
+- ``_priors``: PM-SNR and EP-SNR to ``theta0`` and ``q`` (§4), or PM-SNR and a time constant
+  to the stationary AR(1) prior's ``theta0``, ``q`` and transition; ``_tuning`` and
   ``_discrepancy``: priors chosen by the data;
 - ``_standardization``: the standardization weights, the one home of eq. (7);
 - ``_paths``: the three computational paths: ``dense`` (the readable statement of the
@@ -34,6 +35,7 @@ _HOMES = {
     "StateSpaceModel": "_model",
     "TuneResult": "_tuning",
     "amplitude_from_components": "_result",
+    "ar1_priors": "_priors",
     "evolution_variance": "_priors",
     "lead_field_amplitude": "_priors",
     "prior_variance": "_priors",

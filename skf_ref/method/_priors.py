@@ -9,9 +9,19 @@
 ``20 log10``, so ``theta_tot = 10**(PM/10)`` and ``kappa**2 = 10**(EP/10)``. Both SNRs must
 lie within +-300 dB, and the variances they give must be normal doubles: a request outside
 that range is refused, naming the parameter, instead of returning 0 or inf.
+
+Beyond the paper, a stationary first-order (AR(1)) prior sets the memory of the state in
+physical time, a time constant ``tau`` in milliseconds, in place of the EP-SNR
+(:func:`ar1_priors`)::
+
+    A = rho I,  rho = exp(-dt / tau),  dt = 1 / sfreq
+    Q = q I,    q = (1 - rho**2) theta0,   P_0 = theta0 I
+
+so that every ``x_t`` has the prior variance ``theta0``, whatever ``t`` and ``K``.
 """
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -25,9 +35,20 @@ from .._utils.checks import (
     check_real,
 )
 
-__all__ = ["prior_variance", "evolution_variance", "lead_field_amplitude", "priors_from_snr"]
+__all__ = [
+    "DEFAULT_EP_SNR_DB",
+    "ar1_coefficients",
+    "ar1_priors",
+    "evolution_variance",
+    "lead_field_amplitude",
+    "prior_variance",
+    "priors_from_snr",
+]
 
 CONVENTIONS = ("gain", "toolbox")
+#: The random walk's EP-SNR (dB) where neither an EP-SNR nor a time constant is given: the
+#: study's rule (validation/report/REPORT.md), on every route that makes an operator.
+DEFAULT_EP_SNR_DB = 0.0
 
 
 def _variance(name: str, compute: Callable[[], float], formula: str) -> float:
@@ -191,16 +212,130 @@ def priors_from_snr(
     >>> float(round(prior_power / noise_power, 12)), round(q / theta0 * 41, 12)
     (1.0, 100.0)
     """
+    given = dict(pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db)
+    theta0 = _initial_variance(L, noise_std, pm_snr_db, convention, "priors_from_snr", given)
+    return theta0, evolution_variance(ep_snr_db, theta0, n_steps)
+
+
+def _initial_variance(
+    L: ArrayLike,
+    noise_std: float,
+    pm_snr_db: float,
+    convention: str,
+    caller: str,
+    given: dict[str, Any],
+) -> float:
+    """``theta0`` of :func:`priors_from_snr` and :func:`ar1_priors` (docs/model.md §4)."""
     noise_std = check_real("noise_std", noise_std, positive=True)
-    if any(isinstance(value, str) and value.strip() == "auto" for value in (pm_snr_db, ep_snr_db)):
+    auto = [k for k, value in given.items() if isinstance(value, str) and value.strip() == "auto"]
+    if auto:
         raise InputError(
-            "priors_from_snr takes SNRs in dB; priors chosen by the data ('auto') are "
-            "skf_ref.tune's: tune(L, Y, noise_std=...) gives theta0 and q"
+            f"{caller} takes numbers, got {' and '.join(auto)}='auto': priors chosen by the "
+            "data ('auto') are skf_ref.tune's: tune(L, Y, noise_std=...) gives them"
         )
     pm_snr_db = check_db("pm_snr_db", pm_snr_db)
     amplitude = lead_field_amplitude(L, convention)
     if convention == "toolbox":
         snr_db = -20 * np.log10(noise_std)
         pm_snr_db = min(pm_snr_db, snr_db - 1.0)
-    theta0 = prior_variance(pm_snr_db, noise_std, amplitude, np.shape(L)[1])
-    return theta0, evolution_variance(ep_snr_db, theta0, n_steps)
+    return prior_variance(pm_snr_db, noise_std, amplitude, np.shape(L)[1])
+
+
+def ar1_coefficients(time_constant_ms: ArrayLike, sfreq: float) -> tuple[Any, Any]:
+    """``rho = exp(-dt / tau)`` and ``1 - rho**2`` of time constants, ``dt = 1 / sfreq``.
+
+    ``1 - rho**2`` is computed as ``-expm1(-2 dt / tau)``: to full precision when ``tau`` is
+    many samples long and ``rho`` near 1. Unchecked: the callers check ``tau`` and ``sfreq``.
+
+    Parameters
+    ----------
+    time_constant_ms : float or ndarray, shape (K,)
+        ``tau`` in milliseconds, > 0.
+    sfreq : float
+        Sampling rate in Hz, > 0.
+
+    Returns
+    -------
+    rho, one_minus_rho_sq : float or ndarray, shape (K,)
+
+    Examples
+    --------
+    >>> rho, rest = ar1_coefficients(10.0, sfreq=1000.0)   # dt / tau = 1 ms / 10 ms
+    >>> bool(np.isclose(rho, np.exp(-0.1))), bool(np.isclose(rest, 1 - np.exp(-0.2)))
+    (True, True)
+    """
+    steps = 1000.0 / (sfreq * np.asarray(time_constant_ms, dtype=float))  # dt / tau
+    rho, rest = np.exp(-steps), -np.expm1(-2 * steps)
+    if np.ndim(rho) == 0:
+        return float(rho), float(rest)
+    return rho, rest
+
+
+def ar1_priors(
+    L: ArrayLike,
+    noise_std: float,
+    pm_snr_db: float,
+    time_constant_ms: float,
+    sfreq: float,
+    convention: str = "gain",
+) -> tuple[float, float, float]:
+    r"""``(theta0, q, transition)`` of the stationary AR(1) prior with a time constant in ms.
+
+    Beyond the paper (whose random walk is :func:`priors_from_snr`'s): the state decays
+    towards 0 with the time constant ``tau`` and is renewed by just enough process noise to
+    keep its prior variance ``theta0`` at every step,
+
+    .. math::
+
+        x_t = \rho x_{t-1} + w_t, \quad \rho = e^{-\Delta t / \tau}, \quad
+        \Delta t = 1 / f_s, \quad w_t \sim N(0, q I), \quad q = (1 - \rho^2) \theta_0,
+        \quad P_0 = \theta_0 I,
+
+    with ``theta0`` from the PM-SNR exactly as :func:`priors_from_snr` computes it (docs/model.md
+    §4). Then ``Var x_t = rho**2 theta0 + q = theta0`` whatever ``t`` and the number of steps,
+    so the filtered estimate at a step does not depend on how many steps follow; the memory
+    is ``tau`` in milliseconds whatever the sampling rate. ``tau -> inf`` is the static prior
+    (``rho -> 1``, ``q -> 0``); ``tau -> 0`` makes each step stand alone.
+
+    Parameters
+    ----------
+    L : ndarray, shape (n_channels, n_sources)
+    noise_std : float
+        Noise standard deviation, as for :func:`priors_from_snr`.
+    pm_snr_db : float
+        PM-SNR in dB.
+    time_constant_ms : float
+        The time constant ``tau`` of the state, in milliseconds, > 0.
+    sfreq : float
+        The sampling rate of the data, in Hz, > 0.
+    convention : {"gain", "toolbox"}
+        See :func:`lead_field_amplitude` and :func:`priors_from_snr`.
+
+    Returns
+    -------
+    theta0 : float
+        Prior variance of every step: ``P_0 = theta0 I``.
+    q : float
+        Process noise variance: ``Q = q I``, ``(1 - rho**2) theta0``.
+    transition : float
+        ``rho``: ``A = rho I``. Pass all three to :func:`skf_ref.reconstruct` as they are.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> L = rng.standard_normal((32, 500))
+    >>> theta0, q, rho = ar1_priors(L, 0.1, pm_snr_db=0.0, time_constant_ms=20.0, sfreq=500.0)
+    >>> round(rho, 12)                           # exp(-2 ms / 20 ms)
+    0.904837418036
+    >>> bool(np.isclose(rho**2 * theta0 + q, theta0, rtol=1e-15))   # Var x_1 = Var x_0
+    True
+    >>> bool(theta0 == priors_from_snr(L, 0.1, 0.0, 0.0, n_steps=1)[0])
+    True
+    """
+    given = dict(pm_snr_db=pm_snr_db, time_constant_ms=time_constant_ms)
+    theta0 = _initial_variance(L, noise_std, pm_snr_db, convention, "ar1_priors", given)
+    time_constant_ms = check_real("time_constant_ms", time_constant_ms, positive=True)
+    sfreq = check_real("sfreq", sfreq, positive=True)
+    rho, rest = ar1_coefficients(time_constant_ms, sfreq)
+    q = _variance("q", lambda: rest * theta0, "(1 - rho^2) theta0")
+    return theta0, q, rho

@@ -1,21 +1,22 @@
-"""Priors chosen by the data: PM-SNR and EP-SNR by one of two criteria (docs/model.md §4).
+"""Priors chosen by the data: PM-SNR and EP-SNR (or a time constant) by one of two criteria.
 
 The Kalman filter gives the marginal likelihood of the data, ``log p(Y | theta0, q)``, as the sum
 of its innovations' log densities, and the filtered residual ``y_t - L x_{t|t}`` whose whitened
-energy the discrepancy principle matches to the noise's. In the singular basis of the whitened lead
-field both need only the rank-r recursions
+energy the discrepancy principle matches to the noise's (docs/model.md §4). In the singular basis
+of the whitened lead field both need only the rank-r recursions
 (:class:`skf_ref.method.SpectralBasis`): one SVD, then a few hundred
 microseconds per prior pair at the paper's scale, with no n-dimensional array at all, so a whole
-grid of priors costs little more than one reconstruction.
+grid of priors costs little more than one reconstruction. The same holds for the stationary
+AR(1) prior (:func:`skf_ref.ar1_priors`): its time constant sets the transition ``rho`` and ``q``
+of each pair, and the recursions run one transition per pair.
 
-A searched SNR chosen on (within ``BOUND_TOL_DB``, 0.01 dB, of) an end of its range is reported:
-the criterion would have gone further, so the range, not the data, made the choice.
-:func:`tune` then warns (``UserWarning``) naming the parameter and the bound, and
+A searched prior chosen on (within ``BOUND_TOL_DB``, 0.01 dB, of) an end of its range is reported
+(``skf_ref.method._search``): the criterion would have gone further, so the range, not the data,
+made the choice. :func:`tune` then warns (``UserWarning``) naming the parameter and the bound, and
 ``at_bound`` of the :class:`TuneResult` records it.
 """
 
 import math
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, cast
@@ -24,36 +25,53 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._utils.checks import (
-    MAX_DB,
     InputError,
     check_choice,
-    check_db,
     check_int,
     check_real,
     describe,
 )
-from .._utils.log import caller_stacklevel
 from .._utils.reprs import html_table
 from ._discrepancy import choose_on_curve
 from ._model import StateSpaceModel
 from ._paths.singular_basis import SpectralBasis, whitener
 from ._priors import (
     CONVENTIONS,
+    DEFAULT_EP_SNR_DB,
+    ar1_coefficients,
+    ar1_priors,
     evolution_variance,
     lead_field_amplitude,
     prior_variance,
     priors_from_snr,
 )
+from ._search import (
+    AUTO_RANGE_DB,
+    AUTO_TIME_CONSTANT_MS,
+    BOUND_TOL_DB,
+    at_bound,
+    check_one_evolution_prior,
+    check_time_constant,
+    search_range,
+    time_constant_levels,
+    warn_at_bound,
+)
 
-__all__ = ["AUTO_RANGE_DB", "BOUND_TOL_DB", "CRITERIA", "TuneResult", "choose_priors", "tune"]
+__all__ = [
+    "AUTO_RANGE_DB",
+    "AUTO_TIME_CONSTANT_MS",
+    "BOUND_TOL_DB",
+    "CRITERIA",
+    "TuneResult",
+    "choose_priors",
+    "tune",
+]
 
-#: The SNRs searched for ``"auto"`` (dB): the span of the paper's finer map.
-AUTO_RANGE_DB = (-20.0, 40.0)
 #: The criteria :func:`tune` can maximize or solve (docs/model.md §4).
 CRITERIA = ("likelihood", "discrepancy")
-#: A searched SNR this close (dB) to an end of its range is on that bound.
-BOUND_TOL_DB = 0.01
-_ENDS = ("lower", "upper")
+
+#: (PM, EP) or (PM, time-constant level) pairs (K, 2) -> theta0, q and the transition.
+_Priors = Callable[[ArrayLike], tuple[NDArray[np.float64], NDArray[np.float64], Any]]
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,34 +80,44 @@ class TuneResult:
 
     Parameters
     ----------
-    pm_snr_db, ep_snr_db : float
-        The chosen SNRs (dB).
+    pm_snr_db : float
+        The chosen PM-SNR (dB).
+    ep_snr_db : float or None
+        The chosen EP-SNR (dB) of the paper's random walk; None for the AR(1) prior.
     theta0, q : float
         The priors they give (docs/model.md §4), in the units of ``L`` and ``Y`` (for the
         "toolbox" convention, of ``Y / max|Y|``).
     log_likelihood : float
-        Its value there: ``reconstruct(...).log_likelihood`` at ``theta0``, ``q``.
+        Its value there: ``reconstruct(...).log_likelihood`` at ``theta0``, ``q`` and
+        ``transition``.
     landscape : pandas.DataFrame
-        The coarse grid: columns ``pm_snr_db``, ``ep_snr_db``, ``theta0``, ``q``,
-        ``log_likelihood``.
+        The coarse grid: columns ``pm_snr_db``, ``ep_snr_db`` (or ``time_constant_ms`` and
+        ``transition`` for the AR(1) prior), ``theta0``, ``q``, ``log_likelihood``.
     convention : str
         The amplitude convention of the SNRs.
     criterion : {"likelihood", "discrepancy"}
-        How the SNRs were chosen.
+        How the priors were chosen.
     at_bound : dict
-        ``"pm_snr_db"`` and/or ``"ep_snr_db"`` -> ``"lower"`` or ``"upper"``: the searched
-        SNRs chosen on (within 0.01 dB, ``BOUND_TOL_DB``, of) an end of their range. Empty when
-        every searched SNR is inside its range; a fixed SNR is never listed.
+        ``"pm_snr_db"`` and/or ``"ep_snr_db"`` (or ``"time_constant_ms"``) -> ``"lower"`` or
+        ``"upper"``: the searched priors chosen on (within 0.01 dB, ``BOUND_TOL_DB``, of; for
+        a time constant within 0.23 %) an end of their range. Empty when every searched
+        prior is inside its range; a fixed one is never listed.
     residual_energy : float
         ``sum_t ||C^{-1} (y_t - L x_{t|t})||^2`` at the chosen priors (``R = C C^T``): the
         discrepancy principle sets it to ``n_channels * n_times``.
     curve : pandas.DataFrame or None
         For ``"discrepancy"``: the PM-SNRs of the coarse grid, the EP-SNR the principle
         gives each (``ep_snr_db``) and the log-likelihood there. None for ``"likelihood"``.
+    time_constant_ms : float or None
+        The chosen time constant (ms) of the stationary AR(1) prior
+        (:func:`skf_ref.ar1_priors`); None for the random walk.
+    transition : float
+        ``A = transition I``: ``exp(-dt / tau)`` for the AR(1) prior, else the one given.
+        Pass ``theta0``, ``q`` and ``transition`` to :func:`skf_ref.reconstruct`.
     """
 
     pm_snr_db: float
-    ep_snr_db: float
+    ep_snr_db: float | None
     theta0: float
     q: float
     log_likelihood: float
@@ -99,11 +127,18 @@ class TuneResult:
     at_bound: dict[str, str] = field(default_factory=dict)
     residual_energy: float = math.nan
     curve: Any = None
+    time_constant_ms: float | None = None
+    transition: float = 1.0
+
+    def _evolution(self) -> str:
+        if self.time_constant_ms is None:
+            return f"EP-SNR {self.ep_snr_db:.2f} dB"
+        return f"time constant {self.time_constant_ms:.3g} ms"
 
     def __repr__(self) -> str:
         bounds = ", ".join(f"{name} on its {end} bound" for name, end in self.at_bound.items())
         return (
-            f"<TuneResult | PM-SNR {self.pm_snr_db:.2f} dB, EP-SNR {self.ep_snr_db:.2f} dB, "
+            f"<TuneResult | PM-SNR {self.pm_snr_db:.2f} dB, {self._evolution()}, "
             f"log-likelihood {self.log_likelihood:.6g}, by {self.criterion}"
             f"{'; ' + bounds if bounds else ''}>"
         )
@@ -111,9 +146,13 @@ class TuneResult:
     def _repr_html_(self) -> str:
         """The choice as a table, for notebooks (the grid stays in ``landscape``)."""
         bounds = ", ".join(f"{name}: {end}" for name, end in self.at_bound.items())
-        rows = {
-            "PM-SNR (dB)": f"{self.pm_snr_db:.2f}",
-            "EP-SNR (dB)": f"{self.ep_snr_db:.2f}",
+        rows: dict[str, Any] = {"PM-SNR (dB)": f"{self.pm_snr_db:.2f}"}
+        if self.time_constant_ms is None:
+            rows["EP-SNR (dB)"] = f"{self.ep_snr_db:.2f}"
+        else:
+            rows["Time constant (ms)"] = f"{self.time_constant_ms:.4g}"
+            rows["Transition"] = f"{self.transition:.6g}"
+        rows |= {
             "theta0": f"{self.theta0:.6g}",
             "q": f"{self.q:.6g}",
             "Log-likelihood": f"{self.log_likelihood:.6g}",
@@ -125,23 +164,6 @@ class TuneResult:
         return html_table("TuneResult", rows)
 
 
-def _search_range(name: str, value: Any) -> tuple[float, float]:
-    """A fixed SNR (one number), a search range (lo, hi), lo < hi, or "auto"."""
-    if isinstance(value, str) and value == "auto":
-        return AUTO_RANGE_DB
-    if np.ndim(value) == 0:
-        return (check_db(name, value),) * 2
-    if isinstance(value, str) or len(value) != 2:
-        raise InputError(f"{name} must be a number or a range (lo, hi), got {describe(value)}")
-    low, high = (check_db(f"{name}[{i}]", v) for i, v in enumerate(value))
-    if not low < high:
-        raise InputError(
-            f"{name} must be a range (lo, hi) with lo < hi, got ({low:g}, {high:g}); give one "
-            "number to fix it"
-        )
-    return low, high
-
-
 def tune(
     L: ArrayLike,
     Y: ArrayLike,
@@ -149,24 +171,32 @@ def tune(
     noise_std: float | None = None,
     noise_cov: ArrayLike | None = None,
     pm_snr_db: float | tuple[float, float] | str = AUTO_RANGE_DB,
-    ep_snr_db: float | tuple[float, float] | str = AUTO_RANGE_DB,
+    ep_snr_db: float | tuple[float, float] | str | None = None,
+    time_constant_ms: float | tuple[float, float] | str | None = None,
+    sfreq: float | None = None,
     transition: float = 1.0,
     convention: str = "gain",
     grid: int = 13,
     criterion: str = "likelihood",
 ) -> TuneResult:
-    r"""PM-SNR and EP-SNR chosen from the data by the marginal likelihood or the discrepancy.
+    r"""PM-SNR and EP-SNR (or a time constant) chosen from the data by the marginal likelihood.
 
-    ``criterion="likelihood"`` (default): the SNRs that maximize the marginal likelihood of
-    the data. A coarse grid of ``grid`` values per searched SNR, then a bounded refinement
+    ``criterion="likelihood"`` (default): the priors that maximize the marginal likelihood of
+    the data. A coarse grid of ``grid`` values per searched prior, then a bounded refinement
     (``scipy.optimize.minimize``, L-BFGS-B, from the best cell). The likelihood judges the
     model ``y = L x + r`` with its priors; it cannot choose the standardization exponent or
     the smoother: they change the estimate shown, not the model, and leave the likelihood
     unchanged.
 
-    ``criterion="discrepancy"``: Morozov's discrepancy principle for the process noise. At
-    each PM-SNR, the EP-SNR at which the whitened residual of the filtered means equals
-    its expected value under the noise model,
+    The evolution prior is the paper's random walk with its EP-SNR (default), or, with
+    ``time_constant_ms``, the stationary AR(1) prior of :func:`skf_ref.ar1_priors`
+    (``A = rho I``, ``rho = exp(-dt / tau)``, ``q = (1 - rho^2) theta0``): its time constant
+    is searched in ``log(tau)`` beside the PM-SNR, on the same grid and refinement
+    (``"auto"``: 1 to 1000 ms).
+
+    ``criterion="discrepancy"`` (random walk only): Morozov's discrepancy principle for the
+    process noise. At each PM-SNR, the EP-SNR at which the whitened residual of the filtered
+    means equals its expected value under the noise model,
 
     .. math:: \sum_t \|C^{-1} (y_t - L x_{t|t})\|^2 = m T, \qquad R = C C^T,
 
@@ -180,9 +210,10 @@ def tune(
     best one's neighbours). A fixed EP-SNR leaves the principle nothing to solve: the
     PM-SNR is then chosen by the likelihood at that EP-SNR.
 
-    A searched SNR chosen within 0.01 dB (``BOUND_TOL_DB``) of an end of its range raises a
-    ``UserWarning`` that names it and the bound (widen the range to let the criterion
-    decide), and is listed in the result's ``at_bound``. A fixed SNR never warns.
+    A searched prior chosen within 0.01 dB (``BOUND_TOL_DB``; a time constant within
+    0.23 %) of an end of its range raises a ``UserWarning`` that names it and the bound
+    (widen the range to let the criterion decide), and is listed in the result's
+    ``at_bound``. A fixed prior never warns.
 
     Parameters
     ----------
@@ -191,28 +222,38 @@ def tune(
     noise_std : float, optional
     noise_cov : array_like, shape (n_channels, n_channels), optional
         Give exactly one, as for :func:`skf_ref.reconstruct`.
-    pm_snr_db, ep_snr_db : (float, float) or float or "auto"
-        The range searched, in dB; a single number fixes that SNR; ``"auto"`` is the
-        default range, (-20, 40) dB (``AUTO_RANGE_DB``).
+    pm_snr_db : (float, float) or float or "auto"
+        The range searched, in dB; a single number fixes it; ``"auto"`` is the default
+        range, (-20, 40) dB (``AUTO_RANGE_DB``).
+    ep_snr_db : (float, float) or float or "auto", optional
+        The same for the EP-SNR of the random walk; default (None) ``"auto"``, unless
+        ``time_constant_ms`` is given: give one of the two.
+    time_constant_ms : (float, float) or float or "auto", optional
+        The stationary AR(1) prior's time constant in ms: a range searched in ``log(tau)``,
+        a number to fix it, or ``"auto"``, (1, 1000) ms (``AUTO_TIME_CONSTANT_MS``).
+    sfreq : float, optional
+        The sampling rate of ``Y`` in Hz; required by ``time_constant_ms``.
     transition : float
-        ``A = transition I``.
+        ``A = transition I`` of the random walk's model (the AR(1) prior sets its own).
     convention : {"gain", "toolbox"}
         "gain" (default): SNRs of the whitened lead field, unit free. "toolbox": as the
         toolbox (docs/model.md §4): needs ``noise_std``; the data are divided by ``max|Y|``
         and ``theta0``, ``q`` and the likelihood are those of ``Y / max|Y|``.
     grid : int
-        Values per searched SNR on the coarse grid, >= 2.
+        Values per searched prior on the coarse grid, >= 2.
     criterion : {"likelihood", "discrepancy"}
-        What chooses the SNRs (see above).
+        What chooses the priors (see above).
 
     Returns
     -------
     TuneResult
+        With ``time_constant_ms``, its ``time_constant_ms`` and ``transition`` are the
+        chosen ones, and ``ep_snr_db`` is None.
 
     Warns
     -----
     UserWarning
-        When a searched SNR is chosen on a bound of its range.
+        When a searched prior is chosen on a bound of its range.
 
     Examples
     --------
@@ -231,13 +272,33 @@ def tune(
     >>> result = tune(L, Y, noise_std=0.5, pm_snr_db=10.0, criterion="discrepancy")
     >>> round(result.residual_energy, 6), result.at_bound
     (400.0, {})
+
+    The stationary AR(1) prior, its time constant chosen in 1 .. 1000 ms at 500 Hz:
+
+    >>> result = tune(L, Y, noise_std=0.5, time_constant_ms="auto", sfreq=500.0, grid=7)
+    >>> result.ep_snr_db is None, 1.0 < result.time_constant_ms < 1000.0
+    (True, True)
+    >>> bool(np.isclose(result.transition, np.exp(-2.0 / result.time_constant_ms)))
+    True
     """
     check_choice("criterion", criterion, CRITERIA)
     check_choice("convention", convention, CONVENTIONS)
     grid = check_int("grid", grid, minimum=2)
-    ranges = [_search_range("pm_snr_db", pm_snr_db), _search_range("ep_snr_db", ep_snr_db)]
+    check_one_evolution_prior(ep_snr_db, time_constant_ms)
     if np.ndim(transition) != 0:
         raise InputError(f"transition must be a scalar for tune, got {describe(transition)}")
+    pm_range = search_range("pm_snr_db", pm_snr_db)
+    tau_ends = None  # the time constants' range: in levels and in ms
+    if time_constant_ms is None:
+        sfreq = None
+        evolution = search_range("ep_snr_db", "auto" if ep_snr_db is None else ep_snr_db)
+    else:
+        sfreq = _check_ar1(time_constant_ms, sfreq, transition, criterion)
+        tau = check_time_constant(time_constant_ms)
+        evolution = time_constant_levels(tau)
+        milliseconds = AUTO_TIME_CONSTANT_MS if tau == "auto" else tau
+        tau_ends = (evolution, milliseconds if isinstance(milliseconds, tuple) else (tau, tau))
+    ranges = [pm_range, evolution]
     model = StateSpaceModel.create(
         L, noise_std=noise_std, noise_cov=noise_cov, theta0=1.0, q=1.0, transition=transition
     )
@@ -252,11 +313,12 @@ def tune(
         )
         data = data / scale
     basis = SpectralBasis(model.L, model.R)
-    priors = _priors(model, basis, convention, data.shape[1])
-    a = float(model.transition)
+    priors = _priors(model, basis, convention, data.shape[1], sfreq)
+    names = ("pm_snr_db", "ep_snr_db" if sfreq is None else "time_constant_ms")
+    projected = (*basis.project(data), np.isnan(data[0]))  # once: then rank-r work only
 
     def log_likelihoods(points: NDArray[np.float64]) -> NDArray[np.float64]:
-        return basis.log_likelihood(data, *priors(points), a)
+        return basis.sums(*projected, *priors(points))[0]
 
     axes = [
         np.linspace(low, high, grid) if low < high else np.array([low]) for low, high in ranges
@@ -274,21 +336,47 @@ def tune(
         target = data.shape[0] * np.count_nonzero(~np.isnan(data[0]))
 
         def excess(points: NDArray[np.float64]) -> NDArray[np.float64]:
-            return basis.residual_energy(data, *priors(points), a) - target
+            return basis.sums(*projected, *priors(points))[1] - target
 
         best, best_value, curve = choose_on_curve(log_likelihoods, excess, axes[0], ranges)
-    residual = basis.residual_energy(data, *priors(best[None]), a)[0]
-    at_bound = _at_bound(best, ranges)
-    _warn_at_bound(at_bound, best, ranges, criterion)
-    return _result(
-        cells, values, priors, best, best_value, convention, criterion, at_bound, residual, curve
-    )
+    residual = basis.sums(*projected, *priors(best[None]))[1][0]
+    bounds = at_bound(names, best, ranges)
+    warn_at_bound(bounds, names, best, ranges, criterion)
+    chosen = (best, best_value, bounds, residual, curve, tau_ends)
+    return _result(cells, values, priors, names, convention, criterion, *chosen)
+
+
+def _check_ar1(time_constant_ms: Any, sfreq: Any, transition: Any, criterion: str) -> float:
+    """The AR(1) prior's checks beyond the time constant's own: its sampling rate, and no
+    transition or criterion that contradicts it. Returns ``sfreq``."""
+    if sfreq is None:
+        raise InputError(
+            f"time_constant_ms={time_constant_ms!r} needs sfreq, the sampling rate of Y in Hz "
+            "(the transition is exp(-1 / (sfreq tau)))"
+        )
+    sfreq = check_real("sfreq", sfreq, positive=True)
+    if transition != 1.0:
+        raise InputError(
+            "give transition or time_constant_ms, not both: the time constant sets the "
+            f"transition, exp(-dt / tau); got transition={transition!r}"
+        )
+    if criterion != "likelihood":
+        raise InputError(
+            f"criterion={criterion!r} solves for the EP-SNR of the random walk; the time "
+            "constant of the AR(1) prior is chosen by criterion='likelihood'"
+        )
+    return sfreq
 
 
 def _priors(
-    model: StateSpaceModel, basis: SpectralBasis, convention: str, n_steps: int
-) -> Callable[[ArrayLike], tuple[NDArray[np.float64], NDArray[np.float64]]]:
-    """(PM, EP) dB pairs (K, 2) -> theta0 (K,), q (K,), vectorized over the pairs."""
+    model: StateSpaceModel,
+    basis: SpectralBasis,
+    convention: str,
+    n_steps: int,
+    sfreq: float | None,
+) -> _Priors:
+    """(PM, EP) dB pairs, or (PM, ``10 log10 tau``) with ``sfreq``, (K, 2) -> theta0 (K,),
+    q (K,) and the transition (a float, or (K,) for the AR(1) prior), vectorized."""
     if convention == "gain":
         # the whitened lead field with noise std 1: the same as priors_from_snr(L, sigma)
         amplitude = lead_field_amplitude(basis.whiten(model.L), "gain")
@@ -299,13 +387,18 @@ def _priors(
         snr_db = -20 * np.log10(sigma)
     unit_theta0 = prior_variance(0.0, sigma, amplitude, model.n_sources)
     unit_q = evolution_variance(0.0, 1.0, n_steps)
+    a = float(cast(float, model.transition))
 
-    def priors(points: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        pm, ep = np.asarray(points, dtype=float).T
+    def priors(points: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], Any]:
+        pm, level = np.asarray(points, dtype=float).T
         if convention == "toolbox":
             pm = np.minimum(pm, snr_db - 1.0)  # the toolbox's clamp
         theta0 = unit_theta0 * 10 ** (pm / 10)
-        return theta0, unit_q * 10 ** (ep / 10) * theta0
+        if sfreq is None:  # the random walk: q = 10**(EP/10) theta0 / K, eq. (10)
+            return theta0, unit_q * 10 ** (level / 10) * theta0, a
+        # the AR(1) prior: rho = exp(-dt / tau), q = (1 - rho^2) theta0 (ar1_priors)
+        rho, rest = ar1_coefficients(10 ** (level / 10), sfreq)
+        return theta0, rest * theta0, rho
 
     return priors
 
@@ -351,85 +444,54 @@ def _refine(
     return best
 
 
-def _at_bound(best: NDArray[np.float64], ranges: list[tuple[float, float]]) -> dict[str, str]:
-    """Searched SNRs within BOUND_TOL_DB of an end of their range -> "lower" or "upper"."""
-    out = {}
-    for name, value, (low, high) in zip(("pm_snr_db", "ep_snr_db"), best, ranges, strict=True):
-        if low < high:
-            for end, bound in zip(_ENDS, (low, high), strict=True):
-                if abs(value - bound) <= BOUND_TOL_DB:
-                    out[name] = end
-    return out
-
-
-def _warn_at_bound(
-    at_bound: dict[str, str],
-    best: NDArray[np.float64],
-    ranges: list[tuple[float, float]],
-    criterion: str,
-) -> None:
-    """One UserWarning per SNR on a bound, pointing at the first caller outside skf_ref."""
-    names = ("pm_snr_db", "ep_snr_db")
-    for name, end in at_bound.items():
-        i = names.index(name)
-        low, high = ranges[i]
-        bound = (low, high)[_ENDS.index(end)]
-        if criterion == "discrepancy" and name == "ep_snr_db":
-            why = "the filtered residual meets its expected value only there or beyond"
-        elif criterion == "discrepancy":
-            why = "the likelihood along the discrepancy curve is largest there or beyond"
-        else:
-            why = "the marginal likelihood is largest there or beyond"
-        further = "below" if end == "lower" else "above"
-        wider = (max(low - 20, -MAX_DB), high) if end == "lower" else (low, min(high + 20, MAX_DB))
-        warnings.warn(
-            f"tune: {name} = {best[i]:.2f} dB lies on the {end} bound {bound:g} dB of its "
-            f"search range ({low:g}, {high:g}): {why}; widen {name} {further} {bound:g} dB "
-            f"to let the data choose: {name}=({wider[0]:g}, {wider[1]:g}) in Python (tune, "
-            f"apply_skf, make_skf_operator) or --{name.replace('_', '-')}="
-            f"{wider[0]:g},{wider[1]:g} on the command line",
-            UserWarning,
-            stacklevel=caller_stacklevel(),
-        )
+def _milliseconds(levels: NDArray[np.float64], ends: Any) -> NDArray[np.float64]:
+    """Time constants (ms) of levels ``10 log10 tau``; ``ends``: the range's levels and its
+    ms, which the ends' levels give exactly (``10**(level / 10)`` can round past them)."""
+    tau = 10 ** (levels / 10)
+    for level, end in zip(ends[0], ends[1], strict=True):
+        tau = np.where(levels == level, end, tau)
+    return tau
 
 
 def _result(
     cells: NDArray[np.float64],
     values: NDArray[np.float64],
-    priors: Callable[[ArrayLike], tuple[NDArray[np.float64], NDArray[np.float64]]],
-    best: NDArray[np.float64],
-    best_value: float,
+    priors: _Priors,
+    names: tuple[str, str],
     convention: str,
     criterion: str,
-    at_bound: dict[str, str],
+    best: NDArray[np.float64],
+    best_value: float,
+    bounds: dict[str, str],
     residual: float,
     curve: Any,
+    tau_ends: Any,
 ) -> TuneResult:
     import pandas as pd
 
-    theta0, q = priors(cells)
-    landscape = pd.DataFrame(
-        dict(
-            pm_snr_db=cells[:, 0],
-            ep_snr_db=cells[:, 1],
-            theta0=theta0,
-            q=q,
-            log_likelihood=values,
-        )
-    )
-    (best_theta0,), (best_q,) = priors(best[None])
+    theta0, q, a = priors(cells)
+    columns = dict(pm_snr_db=cells[:, 0])
+    if names[1] == "ep_snr_db":
+        columns |= dict(ep_snr_db=cells[:, 1])
+    else:  # the levels of the time constants, in ms again
+        columns |= dict(time_constant_ms=_milliseconds(cells[:, 1], tau_ends), transition=a)
+    landscape = pd.DataFrame(columns | dict(theta0=theta0, q=q, log_likelihood=values))
+    (best_theta0,), (best_q,), best_a = priors(best[None])
+    ar1 = names[1] == "time_constant_ms"
     return TuneResult(
         pm_snr_db=float(best[0]),
-        ep_snr_db=float(best[1]),
+        ep_snr_db=None if ar1 else float(best[1]),
         theta0=float(best_theta0),
         q=float(best_q),
         log_likelihood=best_value,
         landscape=landscape,
         convention=convention,
         criterion=criterion,
-        at_bound=at_bound,
+        at_bound=bounds,
         residual_energy=float(residual),
         curve=curve,
+        time_constant_ms=float(_milliseconds(best[1:], tau_ends)[0]) if ar1 else None,
+        transition=float(np.ravel(best_a)[0]),
     )
 
 
@@ -440,14 +502,17 @@ def choose_priors(
     noise_std: float | None = None,
     noise_cov: ArrayLike | None = None,
     pm_snr_db: float | str | tuple[float, float],
-    ep_snr_db: float | str | tuple[float, float],
+    ep_snr_db: float | str | tuple[float, float] | None = None,
+    time_constant_ms: float | str | tuple[float, float] | None = None,
+    sfreq: float | None = None,
     convention: str = "gain",
     criterion: str = "likelihood",
-) -> tuple[float, float, TuneResult | None]:
-    """``theta0, q`` from two SNRs, either of which may be ``"auto"``, and how they were chosen.
+) -> tuple[float, float, float, TuneResult | None]:
+    """``theta0, q, transition`` from the priors given, any of which may be ``"auto"``.
 
     The SNRs are those of the whitened lead field (docs/model.md §4): with ``noise_std``,
-    exactly :func:`skf_ref.priors_from_snr`.
+    exactly :func:`skf_ref.priors_from_snr` (the paper's random walk, transition 1), or with
+    ``time_constant_ms`` :func:`skf_ref.ar1_priors` (the stationary AR(1) prior).
 
     Parameters
     ----------
@@ -458,20 +523,29 @@ def choose_priors(
         Give exactly one.
     pm_snr_db, ep_snr_db : float or "auto" or (float, float)
         A number fixes the SNR; ``"auto"`` or a range ``(low, high)`` is searched by
-        :func:`tune`.
+        :func:`tune`. ``ep_snr_db`` None (not given): 0 dB, or the AR(1) prior with
+        ``time_constant_ms``.
+    time_constant_ms : float or "auto" or (float, float), optional
+        The AR(1) prior's time constant (ms); give it or ``ep_snr_db``, not both.
+    sfreq : float, optional
+        The sampling rate of ``Y`` (Hz), for ``time_constant_ms``.
     convention : {"gain", "toolbox"}
         "toolbox" needs ``noise_std``.
     criterion : {"likelihood", "discrepancy"}
-        How :func:`tune` chooses an ``"auto"`` SNR.
+        How :func:`tune` chooses an ``"auto"`` prior.
 
     Returns
     -------
-    theta0, q : float
+    theta0, q, transition : float
     tuning : TuneResult or None
-        None when both SNRs were numbers.
+        None when every prior was a number.
     """
     check_choice("criterion", criterion, CRITERIA)
-    if any(isinstance(v, str) or np.ndim(v) > 0 for v in (pm_snr_db, ep_snr_db)):
+    check_one_evolution_prior(ep_snr_db, time_constant_ms)
+    if ep_snr_db is None and time_constant_ms is None:
+        ep_snr_db = DEFAULT_EP_SNR_DB  # the random walk at the study's rule's EP-SNR
+    given = [v for v in (pm_snr_db, ep_snr_db, time_constant_ms) if v is not None]
+    if any(isinstance(v, str) or np.ndim(v) > 0 for v in given):
         result = tune(
             L,
             Y,
@@ -479,16 +553,23 @@ def choose_priors(
             noise_cov=noise_cov,
             pm_snr_db=pm_snr_db,
             ep_snr_db=ep_snr_db,
+            time_constant_ms=time_constant_ms,
+            sfreq=sfreq,
             convention=convention,
             criterion=criterion,
         )
-        return result.theta0, result.q, result
+        return result.theta0, result.q, result.transition, result
     n_times = np.shape(Y)[-1]
-    pm, ep = cast(float, pm_snr_db), cast(float, ep_snr_db)  # numbers: "auto" went to tune
     if noise_cov is None:
-        return *priors_from_snr(L, cast(float, noise_std), pm, ep, n_times, convention), None
-    if convention != "gain":
+        whitened, sigma = L, cast(float, noise_std)
+    elif convention != "gain":
         raise InputError(f"convention={convention!r} needs noise_std, not noise_cov")
-    model = StateSpaceModel.create(L, noise_cov=noise_cov, theta0=1.0, q=1.0)
-    whitened = whitener(model.R)[0](model.L)
-    return *priors_from_snr(whitened, 1.0, pm, ep, n_times), None
+    else:
+        model = StateSpaceModel.create(L, noise_cov=noise_cov, theta0=1.0, q=1.0)
+        whitened, sigma = whitener(model.R)[0](model.L), 1.0
+    pm = cast(float, pm_snr_db)  # numbers: "auto" and ranges went to tune
+    if time_constant_ms is None:
+        ep = cast(float, ep_snr_db)
+        return *priors_from_snr(whitened, sigma, pm, ep, n_times, convention), 1.0, None
+    tau, rate = cast(float, time_constant_ms), cast(float, sfreq)
+    return *ar1_priors(whitened, sigma, pm, tau, rate, convention), None

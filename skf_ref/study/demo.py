@@ -316,7 +316,7 @@ def _priors(
 ) -> tuple[tuple[float, float], TuneResult | None]:
     from ..method._tuning import choose_priors
 
-    theta0, q, tuning = choose_priors(
+    theta0, q, _, tuning = choose_priors(  # the random walk: transition 1
         head.leadfield, sim.Y, noise_std=sim.sigma, pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db
     )
     if tuning is not None:

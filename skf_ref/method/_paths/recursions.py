@@ -5,9 +5,9 @@ In the singular basis of the whitened lead field, ``L~ = U diag(s) V^T``
 (``A = a I``, ``Q = q I``, ``P_0 = theta0 I``) are ``r = rank(L)`` numbers a step,
 ``p_{t|t-1}``, and one scalar on the complement of span V, carried as ``u_t = q / c_t``.
 This module holds those recursions, the filtered means and the smoother's backward passes.
-The recursions broadcast over leading dimensions of ``theta0`` and ``q``: with arrays of K
-priors they run K filters at once (how :class:`~.singular_basis.SpectralBasis` evaluates a
-grid of priors).
+The recursions broadcast over leading dimensions of ``theta0``, ``q`` and ``a``: with arrays of
+K priors they run K filters at once (how :class:`~.singular_basis.SpectralBasis` evaluates a
+grid of priors, and of transitions for the AR(1) prior's time constants).
 
 Steady state
 ------------
@@ -61,7 +61,7 @@ _CHECK_STEPS = 32
 LFILTER_STEPS = 4096
 
 
-def fixed_point(s: _Array, a: float, q: ArrayLike) -> _Array:
+def fixed_point(s: _Array, a: Any, q: ArrayLike) -> _Array:
     """``p_inf``, the limit of ``p_{t|t-1}``: positive root of ``s^2 p^2 + b p - q = 0``.
 
     ``b = 1 - a^2 - q s^2``; each root formula is used where it does not cancel. NaN where
@@ -70,7 +70,8 @@ def fixed_point(s: _Array, a: float, q: ArrayLike) -> _Array:
     Parameters
     ----------
     s : ndarray, shape (r,)
-    a : float
+    a : float or ndarray, shape (..., 1)
+        Broadcast against ``q[..., None] * s``.
     q : float or ndarray, shape (...)
 
     Returns
@@ -98,8 +99,9 @@ class Recursions:
     ----------
     s : ndarray, shape (r,)
         Singular values of the whitened lead field.
-    a : float
-        ``A = a I``.
+    a : float or ndarray, shape (...)
+        ``A = a I``; an array (broadcast with ``q`` and ``theta0``) runs one transition per
+        prior, for the filtered means and the log-likelihood (the smoothers take a float).
     q, theta0 : float or ndarray, shape (...)
         ``Q = q I`` and ``P_0 = theta0 I``; arrays (broadcast together) run several priors.
     n_times : int
@@ -117,8 +119,6 @@ class Recursions:
     p_pred : ndarray, shape (n_stored, ..., r)
         ``p_{t|t-1}`` for ``t < n_stored = min(steady + 1, n_times)``; the last row holds
         for every later step.
-    u : ndarray, shape (n_times, ...)
-        ``q / c_{t|t-1}`` on the complement of span V, every step.
 
     Examples
     --------
@@ -130,7 +130,7 @@ class Recursions:
     def __init__(
         self,
         s: NDArray[np.float64],
-        a: float,
+        a: Any,
         q: ArrayLike,
         theta0: ArrayLike,
         n_times: int,
@@ -139,8 +139,11 @@ class Recursions:
     ) -> None:
         rtol = STEADY_RTOL if rtol is None else rtol
         q, theta0 = np.asarray(q, dtype=float), np.asarray(theta0, dtype=float)
-        batch = np.broadcast_shapes(q.shape, theta0.shape)
-        self.s, self.a, self.n_times = s, a, n_times
+        batch = np.broadcast_shapes(q.shape, theta0.shape, np.shape(a))
+        self.s, self.n_times = s, n_times
+        self.a: Any = a if np.ndim(a) == 0 else np.asarray(a, dtype=float)
+        # a transition per prior broadcasts against s as q does; a scalar stays as given
+        a = self._a = a if np.ndim(a) == 0 else np.asarray(a, dtype=float)[..., None]
         self.missing = np.zeros(n_times, bool) if missing is None else missing
         # the steady state can only hold after the last missing step (a gap restarts the
         # transient): the steps before it are kept one by one
@@ -164,7 +167,14 @@ class Recursions:
                 self.steady = first + settled
                 break
         self.p_pred = p_pred[: min(self.steady + 1, n_times)].copy()
-        self.u = _complement(a, q, theta0, batch, n_times)
+        self._priors = (q, theta0, batch)
+
+    @functools.cached_property
+    def u(self) -> _Array:
+        """ndarray, shape (n_times, ...) : ``q / c_{t|t-1}`` on the complement of span V,
+        every step; only the smoothers need it (computed on first use)."""
+        q, theta0, batch = self._priors
+        return _complement(self.a, q, theta0, batch, self.n_times)
 
     @property
     def held(self) -> bool:
@@ -223,9 +233,9 @@ class Recursions:
             that it stays finite when ``c`` grows past the largest float (``|a| > 1``).
         """
         p_filt, p_pred = self.p_filt, self.p_pred
-        gamma = self.a * p_filt[:-1] / p_pred[1:]
+        gamma = self._a * p_filt[:-1] / p_pred[1:]
         if self.held:
-            gamma = np.concatenate([gamma, self.a * p_filt[-1:] / p_pred[-1:]])
+            gamma = np.concatenate([gamma, self._a * p_filt[-1:] / p_pred[-1:]])
         return gamma, self.a / (self.a**2 + self.u[:-1])
 
     def smooth_state(self, xi: _Array) -> _Array:
@@ -304,7 +314,7 @@ class Recursions:
             ``sum_t ||U^T (y~_t - L~ x_{t|t})||^2``, the filtered residual's energy on span U:
             ``U^T y~_t - s xi_t = e~_t - s^2 p / (s^2 p + 1) e~_t = e~_t / (s^2 p + 1)``.
         """
-        s, a, T = self.s, self.a, self.n_times
+        s, a, T = self.s, self._a, self.n_times
         denom = s**2 * self.p_pred + 1  # eigenvalues of S~ on span U
         eta = eta.reshape((T,) + (1,) * (self.p_pred.ndim - 2) + (len(s),))
         # x_{t|t} = a x + K~ (y~ - L~ a x) with K~ = V diag(p s / (s^2 p + 1)) U^T §2.2 (5)
@@ -340,9 +350,7 @@ def _settled(p_pred: _Array, target: _Array, rtol: float) -> int | None:
     return int(rows[0]) if len(rows) else None
 
 
-def _complement(
-    a: float, q: _Array, theta0: _Array, batch: tuple[int, ...], n_times: int
-) -> _Array:
+def _complement(a: Any, q: _Array, theta0: _Array, batch: tuple[int, ...], n_times: int) -> _Array:
     """``u_t = q / c_{t|t-1}`` (n_times, ...) with ``c' = a^2 c + q``: ``u' = u / (a^2 + u)``.
 
     ``c`` grows as ``a^(2t)`` when ``|a| > 1`` and would overflow on long runs; ``u`` stays

@@ -244,7 +244,7 @@ class SpectralBasis:
         return eta, rho_sq
 
     def log_likelihood(
-        self, Y: NDArray[np.float64], theta0: ArrayLike, q: ArrayLike, transition: float = 1.0
+        self, Y: NDArray[np.float64], theta0: ArrayLike, q: ArrayLike, transition: Any = 1.0
     ) -> Any:
         """The innovation log-likelihood of ``Y`` for each of many priors, no (n, T) array.
 
@@ -254,8 +254,8 @@ class SpectralBasis:
             A column of NaN is a missing step (docs/model.md §2).
         theta0, q : float or array_like, shape (K,)
             Isotropic priors ``P_0 = theta0 I``, ``Q = q I``, K pairs (broadcast).
-        transition : float
-            ``A = transition I``.
+        transition : float or array_like, shape (K,)
+            ``A = transition I``: one for every pair, or one each (the AR(1) prior's).
 
         Returns
         -------
@@ -265,7 +265,7 @@ class SpectralBasis:
         return self._sums(Y, theta0, q, transition)[0]
 
     def residual_energy(
-        self, Y: NDArray[np.float64], theta0: ArrayLike, q: ArrayLike, transition: float = 1.0
+        self, Y: NDArray[np.float64], theta0: ArrayLike, q: ArrayLike, transition: Any = 1.0
     ) -> Any:
         r"""The whitened residual of the filtered means, ``sum_t ||C^{-1} (y_t - L x_{t|t})||^2``.
 
@@ -281,8 +281,8 @@ class SpectralBasis:
             A column of NaN is a missing step (docs/model.md §2), which adds nothing.
         theta0, q : float or array_like, shape (K,)
             Isotropic priors ``P_0 = theta0 I``, ``Q = q I``, K pairs (broadcast).
-        transition : float
-            ``A = transition I``.
+        transition : float or array_like, shape (K,)
+            ``A = transition I``: one for every pair, or one each.
 
         Returns
         -------
@@ -302,18 +302,62 @@ class SpectralBasis:
         return self._sums(Y, theta0, q, transition)[1]
 
     def _sums(
-        self, Y: NDArray[np.float64], theta0: ArrayLike, q: ArrayLike, transition: float
+        self, Y: NDArray[np.float64], theta0: ArrayLike, q: ArrayLike, transition: Any
     ) -> tuple[Any, Any]:
         """The log-likelihood and the filtered residual's energy, (K,) each or floats."""
         eta, rho_sq = self.project(Y)
-        missing = np.isnan(Y[0])
+        return self.sums(eta, rho_sq, np.isnan(Y[0]), theta0, q, transition)
+
+    def sums(
+        self,
+        eta: NDArray[np.float64],
+        rho_sq: float,
+        missing: NDArray[np.bool_],
+        theta0: ArrayLike,
+        q: ArrayLike,
+        transition: Any = 1.0,
+    ) -> tuple[Any, Any]:
+        """The log-likelihood and the filtered residual's energy of data projected once.
+
+        What :meth:`log_likelihood` and :meth:`residual_energy` compute, from the data's
+        :meth:`project`: a search over many priors (:func:`skf_ref.tune`) projects the data
+        once and runs only the rank-r recursions for each batch of priors.
+
+        Parameters
+        ----------
+        eta : ndarray, shape (n_times, rank)
+        rho_sq : float
+            :meth:`project`'s answer for the data.
+        missing : ndarray of bool, shape (n_times,)
+            The data's missing steps (columns of NaN).
+        theta0, q : float or array_like, shape (K,)
+        transition : float or array_like, shape (K,)
+            As for :meth:`log_likelihood`.
+
+        Returns
+        -------
+        log_likelihood, residual_energy : ndarray, shape (K,), or float for scalar priors
+
+        Examples
+        --------
+        >>> rng = np.random.default_rng(0)
+        >>> basis = SpectralBasis(rng.standard_normal((6, 9)), np.eye(6))
+        >>> Y = rng.standard_normal((6, 5))
+        >>> eta, rho_sq = basis.project(Y)
+        >>> ll, _ = basis.sums(eta, rho_sq, np.zeros(5, bool), [1.0, 2.0], 0.1, [1.0, 0.5])
+        >>> bool(ll[1] == basis.log_likelihood(Y, 2.0, 0.1, 0.5))
+        True
+        """
         theta0, q = np.broadcast_arrays(np.asarray(theta0, float), np.asarray(q, float))
+        if np.ndim(transition):  # one transition per prior: broadcast with them
+            theta0, q, transition = np.broadcast_arrays(theta0, q, np.asarray(transition, float))
         flat_theta0, flat_q = theta0.ravel(), q.ravel()
         out = np.empty((2, len(flat_theta0)))
         for start in range(0, out.shape[1], _PRIORS_AT_ONCE):
             chunk = slice(start, start + _PRIORS_AT_ONCE)
+            a = transition if np.ndim(transition) == 0 else transition.ravel()[chunk]
             recursions = Recursions(
-                self.s, transition, flat_q[chunk], flat_theta0[chunk], len(eta), missing=missing
+                self.s, a, flat_q[chunk], flat_theta0[chunk], len(eta), missing=missing
             )
             _, quadratic, residual = recursions.filter_means(eta)
             log_det_S = recursions.log_det_innovations()

@@ -111,10 +111,14 @@ def plot_landscape(
 ) -> Figure:
     """The marginal likelihood over (EP-SNR, PM-SNR), with the chosen priors marked.
 
+    For the stationary AR(1) prior the horizontal axis is the time constant (ms, a
+    logarithmic axis) in place of the EP-SNR.
+
     Parameters
     ----------
     result : skf_ref.method.TuneResult
-        Its ``landscape`` (the coarse grid) and chosen ``pm_snr_db``, ``ep_snr_db``.
+        Its ``landscape`` (the coarse grid) and chosen ``pm_snr_db``, ``ep_snr_db`` (or
+        ``time_constant_ms``).
     path : str or path-like, optional
         Where to save the figure (its format from the suffix); None: not saved.
     title : str, optional
@@ -127,7 +131,15 @@ def plot_landscape(
         fixed) and a star at the chosen point.
     """
     landscape = cast("pd.DataFrame", result.landscape)
-    grid = landscape.pivot(index="pm_snr_db", columns="ep_snr_db", values="log_likelihood")
+    if result.time_constant_ms is None:
+        column, label = "ep_snr_db", "EP-SNR (dB)"
+        chosen = cast(float, result.ep_snr_db)
+        about = f"EP-SNR {chosen:.1f} dB"
+    else:
+        column, label = "time_constant_ms", "time constant (ms)"
+        chosen = result.time_constant_ms
+        about = f"time constant {chosen:.3g} ms"
+    grid = landscape.pivot(index="pm_snr_db", columns=column, values="log_likelihood")
     relative = grid.to_numpy() - result.log_likelihood
     fig = figure(5.2, 4.0)
     ax = fig.add_subplot()
@@ -135,8 +147,10 @@ def plot_landscape(
         fixed_pm = relative.shape[0] == 1
         axis = grid.columns if fixed_pm else grid.index
         ax.plot(axis, relative.ravel(), "o-", color="tab:blue")
-        ax.axvline(result.ep_snr_db if fixed_pm else result.pm_snr_db, color="tab:red")
-        ax.set_xlabel("EP-SNR (dB)" if fixed_pm else "PM-SNR (dB)")
+        ax.axvline(chosen if fixed_pm else result.pm_snr_db, color="tab:red")
+        ax.set_xlabel(label if fixed_pm else "PM-SNR (dB)")
+        if fixed_pm and column == "time_constant_ms":
+            ax.set_xscale("log")
         ax.set_ylabel("log-likelihood re. the chosen priors")
     else:
         image = ax.pcolormesh(
@@ -148,11 +162,11 @@ def plot_landscape(
             vmin=-_LANDSCAPE_RANGE,
             vmax=0.0,
         )
-        ax.plot(result.ep_snr_db, result.pm_snr_db, "*", ms=14, mfc="tab:red", mec="white")
-        ax.set_xlabel("EP-SNR (dB)")
+        ax.plot(chosen, result.pm_snr_db, "*", ms=14, mfc="tab:red", mec="white")
+        ax.set_xlabel(label)
+        if column == "time_constant_ms":
+            ax.set_xscale("log")
         ax.set_ylabel("PM-SNR (dB)")
         fig.colorbar(image, ax=ax, extend="min", label="log-likelihood re. the chosen priors")
-    ax.set_title(
-        title or f"chosen: EP-SNR {result.ep_snr_db:.1f} dB, PM-SNR {result.pm_snr_db:.1f} dB"
-    )
+    ax.set_title(title or f"chosen: {about}, PM-SNR {result.pm_snr_db:.1f} dB")
     return finish(fig, path)

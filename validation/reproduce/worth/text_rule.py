@@ -91,9 +91,13 @@ def headline_table(worth, snr):
 
 def _package_priors() -> tuple[float, float]:
     """The default priors (EP-SNR, PM-SNR) in dB of ``make_skf_operator`` (``apply_skf`` and
-    the command line take the same), read from the package itself."""
+    the command line take the same), read from the package itself: an EP-SNR not given
+    (None) is the random walk's ``DEFAULT_EP_SNR_DB``."""
+    from skf_ref.method._priors import DEFAULT_EP_SNR_DB
+
     defaults = inspect.signature(make_skf_operator).parameters
-    return float(defaults["ep_snr_db"].default), float(defaults["pm_snr_db"].default)
+    ep = defaults["ep_snr_db"].default
+    return float(DEFAULT_EP_SNR_DB if ep is None else ep), float(defaults["pm_snr_db"].default)
 
 
 #: The package's default priors (EP-SNR, PM-SNR) in dB, of ``apply_skf`` and the commands.
