@@ -142,7 +142,7 @@ def cases(suite: int = CONFORMANCE_VERSION) -> list[Case]:
     >>> [case.name for case in cases()][:3]
     ['original_skf', 'free_orientation', 'average_reference']
     >>> cases()[0].shape, cases()[0].skf_ref_version
-    ((4, 7), '0.3.0')
+    ((4, 7), '0.4.0')
     >>> len(cases(suite=3)), [case.name for case in cases()][17:]
     (17, ['ar1_prior', 'ar1_prior_smoothed'])
     """
