@@ -56,10 +56,10 @@ for K in (short, long):
 for name in ("random walk", "AR(1), 10 ms"):
     a, b = estimates[name, short], estimates[name, long]
     change = np.max(np.abs(a - b)) / np.max(np.abs(a))
-    errors = [1e3 * np.linalg.norm(head.positions[np.argmax(e[:, peak])] - truth.positions[0])
-              for e in (a, b)]  # fmt: skip
+    found = [head.positions[np.argmax(e[:, peak])] for e in (a, b)]
+    mm = [1e3 * np.linalg.norm(p - truth.positions[0]) for p in found]
     print(f"{name}: the estimate changes by {change:.0e} of its largest value; deep error at "
-          f"100 ms {errors[0]:.0f} mm (300 samples), {errors[1]:.0f} mm (3000 samples)")  # fmt: skip
+          f"100 ms {mm[0]:.0f} mm (300 samples), {mm[1]:.0f} mm (3000 samples)")  # fmt: skip
 
 # %%
 # The deep region's time course
