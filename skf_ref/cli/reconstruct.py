@@ -465,7 +465,10 @@ def run(args: argparse.Namespace) -> Reconstruction:
     rec, stc, times, positions = (_mne_route if route == "mne" else _array_route)(args)
     if positions is not None and not isinstance(positions, np.ndarray):
         positions = np.concatenate(positions)
-    written = _write(args, route, rec, stc, times, positions)
+    try:
+        written = _write(args, route, rec, stc, times, positions)
+    except InputError as err:  # a file that appeared since the check: the flag to replace it
+        raise InputError(str(err).replace("give overwrite=True", "give --overwrite")) from None
     if not args.quiet:
         names = ", ".join(str(path) for path in written)
         print(f"wrote {names}", file=sys.stderr)
@@ -484,21 +487,25 @@ def _write(
     components = rec.n_sources // len(positions) if positions is not None else 1
     extra = {"log_likelihood": rec.log_likelihood, "theta0": rec.theta0, "q": rec.q}
     extra["channels"] = args.channels
+    # without --overwrite, a file that appeared since the check (a second run of the same
+    # command) is never replaced: each is published only where nothing is
+    keep = dict(overwrite=args.overwrite)
     if args.out.suffix == ".npz":
-        written = [write_reconstruction(args.out, rec, times=times, positions=positions)]
+        written = [write_reconstruction(args.out, rec, times=times, positions=positions, **keep)]
     else:
-        written = write_stc(args.out, stc)
-    with atomic_path(args.out.with_name(args.out.name + ".json")) as tmp:
+        written = write_stc(args.out, stc, **keep)
+    with atomic_path(args.out.with_name(args.out.name + ".json"), **keep) as tmp:
         tmp.write_text(json.dumps(_settings(args, route, extra), indent=1, default=str) + "\n")
     if args.plot is not None:
         from ..study.plots import plot_estimate
+        from ..study.plots.style import finish
 
-        plot_estimate(  # written whole or not at all (atomic_path)
+        figure = plot_estimate(
             rec.amplitude(components if components in (1, 3) else 1),
             times if times is not None else np.arange(rec.n_times),
             positions if components in (1, 3) else None,
             title=f"SKF, exponent {args.exponent:g}, "
             + ("no smoothing" if args.smoother == "none" else args.smoother),
-            path=args.plot,
         )
+        finish(figure, args.plot, **keep)  # written whole or not at all (atomic_path)
     return written

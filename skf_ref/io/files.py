@@ -304,11 +304,13 @@ def write_reconstruction(
     times: ArrayLike | None = None,
     positions: ArrayLike | None = None,
     extra: Mapping[str, Any] | None = None,
+    overwrite: bool = True,
 ) -> Path:
     """Write a reconstruction, its settings and the package versions to a ``.npz`` file.
 
     The file appears whole or not at all (written under a temporary name, then renamed);
-    an existing file is replaced (through a symbolic link, the file it points to).
+    an existing file is replaced (through a symbolic link, the file it points to) unless
+    ``overwrite=False``.
 
     Parameters
     ----------
@@ -320,6 +322,9 @@ def write_reconstruction(
         With them the file also holds ``amplitude`` (n_positions, n_times).
     extra : dict, optional
         More scalar settings to record (e.g. ``pm_snr_db``).
+    overwrite : bool
+        Replace a file at ``path``. False: a file there is refused before any work, and
+        one that appears while this one is written is left as it is (an error).
 
     Returns
     -------
@@ -336,7 +341,7 @@ def write_reconstruction(
     from .._utils.provenance import package_versions
     from ..method import Reconstruction
 
-    path = check_output_path(path, suffixes=(".npz",))
+    path = check_output_path(path, suffixes=(".npz",), overwrite=overwrite)
     if not isinstance(reconstruction, Reconstruction):
         raise InputTypeError(
             f"reconstruction must be an skf_ref.Reconstruction, got {describe(reconstruction)}"
@@ -358,7 +363,7 @@ def write_reconstruction(
         k: np.asarray("none" if v is None else v) for k, v in settings.items()
     }
     scalars["log_likelihood"] = np.asarray(reconstruction.log_likelihood)
-    with atomic_path(path) as tmp:
+    with atomic_path(path, overwrite=overwrite) as tmp:
         np.savez_compressed(tmp, **arrays, **scalars)
     return path
 
@@ -421,7 +426,7 @@ def stc_files(path: str | os.PathLike, class_name: str, n_volumes: int = 1) -> l
     return [path.with_name(f"{stem}{tag}.stc") for tag in tags]
 
 
-def write_stc(path: str | os.PathLike, stc: Any) -> list[Path]:
+def write_stc(path: str | os.PathLike, stc: Any, *, overwrite: bool = True) -> list[Path]:
     """Write an MNE source estimate with MNE's writer, every file whole or absent.
 
     Parameters
@@ -432,6 +437,9 @@ def write_stc(path: str | os.PathLike, stc: Any) -> list[Path]:
         ``NAME.stc`` or ``NAME.h5`` becomes these). A vector or mixed estimate is written
         to ``.h5`` only.
     stc : mne.SourceEstimate or mne.VolSourceEstimate or mne.MixedSourceEstimate or vector kin
+    overwrite : bool
+        Replace files at those names. False: an existing one is refused before any work,
+        and one that appears while they are written is left as it is (an error).
 
     Returns
     -------
@@ -454,13 +462,16 @@ def write_stc(path: str | os.PathLike, stc: Any) -> list[Path]:
     ):
         raise InputTypeError(f"stc must be an MNE source estimate, got {describe(stc)}")
     volumes = len(stc.vertices) if type(stc).__name__ == "VolSourceEstimate" else 1
-    finals = [check_output_path(f) for f in stc_files(path, type(stc).__name__, volumes)]
+    finals = [
+        check_output_path(f, overwrite=overwrite)
+        for f in stc_files(path, type(stc).__name__, volumes)
+    ]
     with temporary_folder(finals[0]) as tmp:
         try:
             stc.save(tmp / _stc_stem(path), path.suffix[1:], overwrite=True, verbose=False)
         except (ValueError, RuntimeError, OSError) as err:  # MNE's writers' own errors
             raise InputError(f"{path}: MNE cannot write this source estimate: {err}") from err
         for final in finals:
-            with atomic_path(final) as target:
+            with atomic_path(final, overwrite=overwrite) as target:
                 os.replace(tmp / final.name, target)
     return finals

@@ -163,7 +163,9 @@ def write_skf_operator(fname: str | Path, operator: SKFOperator, overwrite: bool
         "forward_fif": _forward_bytes(operator.forward),
         **priors,
     }
-    with atomic_path(path) as tmp:
+    # without overwrite, a file that appeared since the check above (another process writing
+    # the same name) is never replaced: the file is published only where nothing is
+    with atomic_path(path, overwrite=overwrite) as tmp:
         h5io.write_hdf5(tmp, content, overwrite=True, title=_TITLE, slash="replace")
     return path
 
