@@ -311,10 +311,10 @@ def export(
         if destination not in same and (destination.exists() or destination.is_symlink())
     ]
     if others and not overwrite:
-        names = ", ".join(path.name for path in others[:5])
+        listed = ", ".join(path.name for path in others[:5])
         raise InputError(
             f"{directory} holds {len(others)} file(s) named like the suite's but with other "
-            f"contents ({names}{', ...' if len(others) > 5 else ''}): nothing is written; "
+            f"contents ({listed}{', ...' if len(others) > 5 else ''}): nothing is written; "
             "give overwrite=True to replace them, or export to another folder"
         )
     directory.mkdir(parents=True, exist_ok=True)
