@@ -108,10 +108,10 @@ def test_the_file_is_hdf5_without_pickles_and_versioned(sample, tmp_path):
 def test_a_file_of_a_later_version_or_another_kind_is_refused(sample, tmp_path, monkeypatch):
     forward, epochs, cov = sample
     operator = make_skf_operator(epochs.info, forward, cov, verbose=False)
-    monkeypatch.setattr(operator_file, "OPERATOR_FORMAT_VERSION", 2)
+    monkeypatch.setattr(operator_file, "OPERATOR_FORMAT_VERSION", 3)
     path = write_skf_operator(tmp_path / "new-skf.h5", operator)
     monkeypatch.undo()
-    with pytest.raises(InputError, match=r"format version 2 .* reads versions up to 1: upgrade"):
+    with pytest.raises(InputError, match=r"format version 3 .* reads versions up to 2: upgrade"):
         read_skf_operator(path)
     with h5py.File(tmp_path / "other.h5", "w") as h5:
         h5["data"] = np.zeros(3)
