@@ -15,11 +15,13 @@ import pytest
 from skf_ref import (
     InputError,
     apply_skf,
+    apply_skf_raw,
     make_skf_operator,
     read_skf_operator,
+    read_skf_stream,
     write_skf_operator,
 )
-from skf_ref.io import operator_file
+from skf_ref.io import operator_file, zarr_dask
 
 zarr = pytest.importorskip("zarr")
 
@@ -155,3 +157,123 @@ def test_a_version_1_file_is_read_with_a_warning(sample, written, monkeypatch):
     monkeypatch.setattr(operator_file, "OPERATOR_FORMAT_VERSION", 1)  # as 0.4.0 wrote it
     old = write_skf_operator(written.with_name("old-skf.h5"), operator)
     assert "sha256" not in _content(old) and _content(old)["version"] == 1
+
+
+# --- streams (items 1, 2, 10, 12) ----------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def raw(sample):
+    operator, epochs = sample
+    data = np.concatenate(list(epochs.get_data()), axis=1)
+    return mne.io.RawArray(data, epochs.info, verbose=False), operator
+
+
+def _store(raw, folder, name="run-skf.zarr", **kwargs):
+    recording, operator = raw
+    apply_skf_raw(recording, operator, out=folder / name, **kwargs)
+    return folder / name
+
+
+def _shards(store):
+    return sorted(p for p in (store / "data" / "c").rglob("*") if p.is_file())
+
+
+def test_a_missing_shard_is_an_error_never_zeros(raw, tmp_path):
+    # item 1: a shard file deleted was read as zarr's fill value, zeros: "no activity"
+    store = _store(raw, tmp_path)
+    whole = read_skf_stream(store)
+    (shard,) = _shards(store)
+    shard.unlink()
+    with pytest.raises(InputError, match=r"run-skf.zarr: the file data/c/0/0 \(positions 0-\d+, "
+                       r"samples 0-399\) is missing: the store is incomplete"):  # fmt: skip
+        read_skf_stream(store, tmin=0.5, tmax=1.0)
+    # zarr itself reads a missing chunk as NaN, no estimate, in a store of this package
+    array = zarr.open_group(store, mode="r")["data"]
+    assert np.isnan(array[:]).all() and whole.data.shape == array.shape
+
+
+@pytest.mark.parametrize("damage", ["changed", "cut short"])
+def test_a_damaged_chunk_is_named_with_its_store(raw, tmp_path, damage):
+    # item 2: 8 bytes changed read back as other finite values (-0.96 for 4.43); item 12:
+    # a shard cut short gave zarr's bare "Stored and computed checksum do not match"
+    store = _store(raw, tmp_path)
+    (shard,) = _shards(store)
+    data = bytearray(shard.read_bytes())
+    if damage == "changed":
+        data[1000:1008] = bytes(8)
+    else:
+        data = data[:-100]
+    shard.write_bytes(bytes(data))
+    match = (r"run-skf.zarr: the chunk of positions 0-\d+, samples 0-399 in the file "
+             r"data/c/0/0 is damaged: its checksum does not match its bytes \(the file was "
+             r"changed or cut short\)")  # fmt: skip
+    with pytest.raises(InputError, match=match):
+        read_skf_stream(store)
+    with pytest.raises(InputError, match=r"the store .*run-skf.zarr: the chunk of"):
+        read_skf_stream(zarr.open_group(store, mode="r"))
+
+
+def test_a_vector_store_is_checked_too(raw, tmp_path):
+    store = _store(raw, tmp_path, name="v-skf.zarr", pick_ori="vector")
+    assert read_skf_stream(store).data.shape[1] == 3
+    (shard,) = _shards(store)
+    shard.write_bytes(shard.read_bytes()[:-1])
+    with pytest.raises(InputError, match=r"v-skf.zarr: the chunk of .* is damaged: its checksum"):
+        read_skf_stream(store, tmax=0.1)
+
+
+def test_a_store_written_without_checksums_is_still_read(raw, tmp_path, monkeypatch):
+    # stores written before the checksums: the same numbers; a missing shard is an error
+    monkeypatch.setattr(zarr_dask, "_checked_chunks", lambda: dict(compressors=None))
+    old = _store(raw, tmp_path, name="old-skf.zarr")
+    monkeypatch.undo()
+    new = _store(raw, tmp_path)
+    np.testing.assert_array_equal(read_skf_stream(old).data, read_skf_stream(new).data)
+    _shards(old)[0].unlink()
+    with pytest.raises(InputError, match=r"old-skf.zarr: the file data/c/0/0 .* is missing"):
+        read_skf_stream(old)
+
+
+def _set_attributes(store, **change):
+    import json
+
+    meta_file = store / "zarr.json"
+    meta = json.loads(meta_file.read_text())
+    for key, value in change.items():
+        if value is _DELETE:
+            del meta["attributes"][key]
+        else:
+            meta["attributes"][key] = value
+    meta_file.write_text(json.dumps(meta))
+
+
+_DELETE = object()
+
+
+@pytest.mark.parametrize(
+    "change, match",
+    [
+        (dict(tstep=0), r"its tstep must be finite and > 0, got 0"),
+        (dict(tstep=-0.005), r"its tstep must be finite and > 0, got -0.005"),
+        (dict(tstep="0.005"), r"its tstep must be a number of seconds, got '0.005' \(str\)"),
+        (dict(tmin=_DELETE), r"it lacks the attribute\(s\) tmin"),
+        (dict(tmin=float("nan")), r"its tmin must be finite, got nan"),
+        (dict(vertices=_DELETE), r"it lacks the attribute\(s\) vertices"),
+        (dict(stc_class="Evoked"), r"it names an unknown source estimate class 'Evoked'"),
+        (dict(stc_class="VolVectorSourceEstimate"),
+         r"its array 'data' is float64 of shape \(\d+, 400\); its vertices and class "
+         r"\(VolVectorSourceEstimate\) ask float64 of shape \(\d+, 3, n_times\)"),
+        (dict(stc_class="SourceEstimate"), r"its vertices do not make an SourceEstimate"),
+        (dict(vertices=[[0, 1]]), r"its array 'data' is float64 of shape \(\d+, 400\); its"),
+        (dict(vertices=[[2, 1]]), r"its vertices must be increasing numbers >= 0"),
+        (dict(vertices="all"), r"its vertices must be lists of integers, got 'all'"),
+        (dict(subject=3), r"its subject must be a name or null, got 3 \(int\)"),
+    ],
+)  # fmt: skip
+def test_every_attribute_the_reader_uses_is_checked(raw, tmp_path, change, match):
+    # item 10: tstep 0 raised ZeroDivisionError, a store without tmin KeyError
+    store = _store(raw, tmp_path)
+    _set_attributes(store, **change)
+    with pytest.raises(InputError, match=r"run-skf.zarr: " + match):
+        read_skf_stream(store, tmin=0.1)
