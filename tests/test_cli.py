@@ -110,7 +110,8 @@ def test_every_option_shows_its_default(command, capsys):
     assert main([command, "--help"]) == 0
     text = capsys.readouterr().out
     options = [line.split()[0] for line in text.splitlines() if line.startswith("  --")]
-    flags = {"--help", "--quiet", *(["--out"] if command == "sweep" else [])}  # no default
+    no_default = ["--out"] if command == "sweep" else ["--overwrite"]
+    flags = {"--help", "--quiet", *no_default}
     for option in set(options) - flags:
         block = text[text.index(f"  {option}") :].split("\n  -")[0]
         assert "(default:" in " ".join(block.split()), option
