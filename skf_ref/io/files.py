@@ -61,6 +61,7 @@ __all__ = [
     "read_data",
     "read_leadfield",
     "stc_files",
+    "takes_option",
     "write_reconstruction",
     "write_stc",
 ]
@@ -68,6 +69,45 @@ __all__ = [
 _LEADFIELD_KEYS = ("L", "leadfield", "lead_field", "G", "gain")
 _DATA_KEYS = ("Y", "data", "eeg")
 _MNE_DATA = (".fif", ".edf", ".bdf", ".vhdr", ".set", ".gdf", ".cnt", ".gz")
+#: The files that hold conditions (MNE's evoked files): ``condition`` chooses one.
+_EVOKED_FILES = ("-ave.fif", "_ave.fif", "-ave.fif.gz")
+_NAMED = (".npz", ".mat")  # the formats whose variables ``key`` names
+
+
+def takes_option(path: str | os.PathLike, option: str) -> bool:
+    """Whether the file ``path`` names is one that ``option`` of :func:`read_data` (or
+    :func:`read_leadfield`) applies to: ``"key"`` (.npz, .mat), ``"condition"`` (an MNE
+    ``-ave.fif``) or ``"sfreq"`` (.csv). An option given for another file is refused,
+    never dropped.
+
+    Examples
+    --------
+    >>> takes_option("Y.npz", "key"), takes_option("Y.npy", "key")
+    (True, False)
+    >>> takes_option("sample-ave.fif", "condition"), takes_option("s-epo.fif", "condition")
+    (True, False)
+    """
+    path = Path(path)
+    if option == "key":
+        return path.suffix in _NAMED
+    if option == "condition":
+        return path.name.lower().endswith(_EVOKED_FILES)
+    return path.suffix == ".csv"
+
+
+def _refuse_options(path: Path, **given: Any) -> None:
+    """Refuse an option ``path``'s format does not take (it would be dropped)."""
+    what = {
+        "key": "names a variable of .npz and .mat files",
+        "condition": "chooses among the conditions of an MNE -ave.fif",
+        "sfreq": "gives the sampling frequency of a .csv file, whose times are not in it",
+    }
+    for option, value in given.items():
+        if value is not None and not takes_option(path, option):
+            raise InputError(
+                f"{option}={value!r} {what[option]}, and {path} is not one: give no {option} "
+                "for it (it would be left unused)"
+            )
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,7 +200,8 @@ def read_leadfield(path: str | os.PathLike, *, key: str | None = None) -> LeadFi
     path : path-like
         ``.npy``, ``.npz``, ``.mat`` or MNE ``-fwd.fif`` (see the module docstring).
     key : str, optional
-        The variable holding the lead field in ``.npz`` and ``.mat`` files.
+        The variable holding the lead field in ``.npz`` and ``.mat`` files (refused for
+        another format, which has no variables).
 
     Returns
     -------
@@ -173,6 +214,7 @@ def read_leadfield(path: str | os.PathLike, *, key: str | None = None) -> LeadFi
         twice, or holds pickled objects.
     """
     path = existing_file(path)
+    _refuse_options(path, key=key)
     name = path.name.lower()
     if name.endswith(".fif") or name.endswith(".fif.gz"):
         return _forward(path)
@@ -228,6 +270,8 @@ def read_data(
         The variable holding the data in ``.npz`` and ``.mat`` files.
     condition : str or int, optional
         The evoked of an ``-ave.fif`` file that holds several: its comment or its index.
+        Each of ``key``, ``condition`` and ``sfreq`` is refused for a file it does not
+        apply to (:func:`takes_option`): it is never left unused silently.
     sfreq : float, optional
         ``.csv`` only: the sampling frequency (Hz). A first row that steps by ``1 / sfreq``
         is the times, any other first row is data (:mod:`skf_ref.io.tables`).
@@ -244,6 +288,7 @@ def read_data(
         pickled objects.
     """
     path = existing_file(path)
+    _refuse_options(path, key=key, condition=condition, sfreq=sfreq)
     name = path.name.lower()
     if path.suffix == ".npy":
         return Recording(check_array(f"{path}", read_npy(path), ("n_channels", "n_times")))
@@ -270,7 +315,7 @@ def read_data(
 def _mne_evoked(path: Path, name: str, condition: str | int | None) -> Any:
     mne = optional("mne", "mne", "reading an MNE evoked (-ave.fif)")
 
-    if name.endswith(("-ave.fif", "_ave.fif", "-ave.fif.gz")):
+    if name.endswith(_EVOKED_FILES):
         with reading(path, "MNE evoked data"):
             evokeds = mne.read_evokeds(path, proj=False, verbose=False)
         return _condition(evokeds, condition, path)

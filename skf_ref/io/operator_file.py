@@ -274,7 +274,9 @@ def read_skf_operator(fname: str | Path) -> SKFOperator:
     optional("mne", "mne", "read_skf_operator")
     path = _file_name(fname)
     if not path.is_file():
-        raise InputError(f"{path}: no such file")
+        from .variables import not_a_file
+
+        raise InputError(f"{path}: {not_a_file(path)}")
     try:
         content = h5io.read_hdf5(path, title=_TITLE, slash="replace")
     except Exception as err:  # h5py's and h5io's own errors for a file that is no operator

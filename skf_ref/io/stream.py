@@ -17,6 +17,7 @@ before the checksums is still read, with the same checks but the checksum's.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -44,7 +45,8 @@ def _open(store: Any) -> tuple[Any, str]:
             )
         path = Path(store)
         if not path.is_dir():
-            raise InputError(f"{path}: no such zarr store (a folder written by apply_skf_raw)")
+            what = "no such zarr store" if not os.path.lexists(path) else "not a zarr store"
+            raise InputError(f"{path}: {what} (a folder written by apply_skf_raw)")
         try:
             group = zarr.open_group(path, mode="r")
         except Exception as err:  # zarr's own errors for a folder that is no store
