@@ -75,7 +75,11 @@ _DIGEST_SINCE = 2  # the first format version with a digest
 
 
 def _feed(h: Any, value: Any) -> None:
-    """Feed ``value`` to the hash ``h``, its kind and its structure included."""
+    """Feed ``value`` to the hash ``h``, its kind and its structure included: a number by
+    its value (an int, a float, a numpy scalar alike), so that the digest does not depend
+    on which of them a reader returns."""
+    if isinstance(value, np.generic):
+        value = value.item()
     if isinstance(value, dict):
         h.update(b"{%d" % len(value))
         for key in sorted(value, key=str):
@@ -95,8 +99,14 @@ def _feed(h: Any, value: Any) -> None:
     elif isinstance(value, bytes):
         h.update(b"b%d:" % len(value))
         h.update(value)
-    elif value is None or isinstance(value, (bool, int, float, complex, np.generic)):
-        h.update(f"{type(value).__name__}:{value!r};".encode())
+    elif value is None or isinstance(value, bool):
+        h.update(f"{value!r};".encode())
+    elif isinstance(value, int):
+        h.update(f"int:{value};".encode())
+    elif isinstance(value, float):
+        h.update(f"float:{value.hex()};".encode())
+    elif isinstance(value, complex):
+        h.update(f"complex:{value.real.hex()},{value.imag.hex()};".encode())
     elif isinstance(value, (datetime.date, datetime.time, datetime.timedelta)):
         h.update(f"{type(value).__name__}:{value!r};".encode())
     else:  # what h5io reads is one of the above; anything else by its type and text
