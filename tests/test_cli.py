@@ -94,7 +94,8 @@ def test_demo_says_which_head_it_used(tmp_path, monkeypatch, capsys):
     # without the dataset: the sphere, with the paper's kind of source space by default
     assert settings["head_kind"] == "sphere" and settings["source_space"] == "anatomical"
     assert settings["positions_requested"] is None
-    assert main(["demo", "--out", str(tmp_path), "--head", "realistic", "--quiet"]) == 2
+    again = ["demo", "--out", str(tmp_path), "--overwrite", "--head", "realistic", "--quiet"]
+    assert main(again) == 2
     assert "--head: head='realistic' needs MNE's testing dataset" in capsys.readouterr().err
 
 
@@ -110,7 +111,8 @@ def test_every_option_shows_its_default(command, capsys):
     assert main([command, "--help"]) == 0
     text = capsys.readouterr().out
     options = [line.split()[0] for line in text.splitlines() if line.startswith("  --")]
-    flags = {"--help", "--quiet", *(["--out"] if command == "sweep" else [])}  # no default
+    no_default = ["--out"] if command == "sweep" else ["--overwrite"]
+    flags = {"--help", "--quiet", *no_default}
     for option in set(options) - flags:
         block = text[text.index(f"  {option}") :].split("\n  -")[0]
         assert "(default:" in " ".join(block.split()), option

@@ -111,16 +111,19 @@ def test_the_file_is_hdf5_without_pickles_and_versioned(sample, tmp_path):
         write_skf_operator(tmp_path / "b-skf.h5", forward)
 
 
-def test_the_version_is_1_for_the_random_walk_and_2_for_a_time_constant(sample, tmp_path):
-    # a random-walk operator stays readable by every skf_ref; a time constant needs format 2
+def test_a_time_constant_is_held_in_place_of_the_ep_snr(sample, tmp_path):
+    # format 2 for every operator (its digest); the evolution prior is one of the two fields
     forward, epochs, cov = sample
-    for settings, version in ((dict(), 1), (dict(time_constant_ms="auto"), 2)):
+    for settings, field in (
+        (dict(), "ep_snr_db"),
+        (dict(time_constant_ms="auto"), "time_constant_ms"),
+    ):
         operator = make_skf_operator(epochs.info, forward, cov, verbose=False, **settings)
-        path = write_skf_operator(tmp_path / f"v{version}-skf.h5", operator, overwrite=True)
+        path = write_skf_operator(tmp_path / f"{field}-skf.h5", operator, overwrite=True)
         with h5py.File(path, "r") as h5:
-            assert h5["skf_ref/key_version"][()] == version
-            assert ("key_time_constant_ms" in h5["skf_ref"]) == (version == 2)
-            assert ("key_ep_snr_db" in h5["skf_ref"]) == (version == 1)
+            assert h5["skf_ref/key_version"][()] == 2
+            assert ("key_time_constant_ms" in h5["skf_ref"]) == (field == "time_constant_ms")
+            assert ("key_ep_snr_db" in h5["skf_ref"]) == (field == "ep_snr_db")
         read = read_skf_operator(path)
         assert (read.ep_snr_db, read.time_constant_ms) == (
             operator.ep_snr_db,
@@ -130,10 +133,11 @@ def test_the_version_is_1_for_the_random_walk_and_2_for_a_time_constant(sample, 
 
 def test_a_file_of_a_later_version_or_another_kind_is_refused(sample, tmp_path, monkeypatch):
     forward, epochs, cov = sample
-    operator = make_skf_operator(epochs.info, forward, cov, time_constant_ms=20.0, verbose=False)
+    operator = make_skf_operator(epochs.info, forward, cov, verbose=False)
+    monkeypatch.setattr(operator_file, "OPERATOR_FORMAT_VERSION", 3)
     path = write_skf_operator(tmp_path / "new-skf.h5", operator)
-    monkeypatch.setattr(operator_file, "OPERATOR_FORMAT_VERSION", 1)  # an skf_ref before 0.4
-    with pytest.raises(InputError, match=r"format version 2 .* reads versions up to 1: upgrade"):
+    monkeypatch.undo()
+    with pytest.raises(InputError, match=r"format version 3 .* reads versions up to 2: upgrade"):
         read_skf_operator(path)
     monkeypatch.undo()
     with h5py.File(tmp_path / "other.h5", "w") as h5:
@@ -211,7 +215,8 @@ def test_a_span_reads_only_its_chunks(sample, tmp_path):
     shards = -(-array.shape[0] // array.shards[0])
     first, last = 10000 // times, 10999 // times
     assert stc.data.shape[1] == 1000 and (first, last) == (10, 11) and shards == 2
-    assert counting.chunk_bytes == shards * (last - first + 1) * rows * times * 8
+    # each chunk is its values and its CRC-32C (4 bytes)
+    assert counting.chunk_bytes == shards * (last - first + 1) * (rows * times * 8 + 4)
     assert counting.chunk_bytes < array.nbytes / 5
 
 

@@ -14,7 +14,10 @@ Every writer of the package goes through here:
   that the next writer of the same result removes what a killed one left
   (:func:`remove_stale_temporaries`);
 - :func:`rename_noreplace` publishes a folder (a zarr store) only where nothing is: it
-  fails if anything appeared at the destination meanwhile, even an empty folder.
+  fails if anything appeared at the destination meanwhile, even an empty folder;
+  ``atomic_path(path, overwrite=False)`` publishes a file the same way (a hard link,
+  which never replaces), so that a file that appeared while it was written (a second run
+  of the same command) is never replaced.
 """
 
 from __future__ import annotations
@@ -245,7 +248,7 @@ def _named(err: OSError, tmp: str, path: Path) -> OSError:
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+def atomic_path(path: str | os.PathLike, *, overwrite: bool = True) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it to ``path`` only on success.
 
     The temporary is hidden (its name starts with a dot), carries this process's id, and is
@@ -258,6 +261,11 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     ----------
     path : path-like
         Final file name; its suffix is kept so writers can pick the format from it.
+    overwrite : bool
+        Whether the file may replace one at ``path``. False: it is published only where
+        nothing is, at the very moment it is published (a hard link, or a rename that never
+        replaces): a file that appeared while it was written (another run writing the
+        same name) stays as it is, and this one is not kept.
 
     Yields
     ------
@@ -267,7 +275,8 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     Raises
     ------
     skf_ref.InputError
-        The folder of ``path`` does not exist, or ``path`` is a folder.
+        The folder of ``path`` does not exist, or ``path`` is a folder; without
+        ``overwrite``, a file at ``path`` (one that appeared while this one was written).
 
     Examples
     --------
@@ -293,7 +302,10 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # the mode of an ordinary new file, not mkstemp's 0600
-        os.replace(tmp, path)
+        if overwrite:
+            os.replace(tmp, path)
+        else:
+            _publish_new(Path(tmp), path, given)
     except OSError as err:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
@@ -305,6 +317,41 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+
+
+def _publish_new(tmp: Path, path: Path, given: Path) -> None:
+    """Give the whole file ``tmp`` the name ``path`` only if nothing has it: never replace.
+
+    A hard link fails if the name exists, whatever appeared there meanwhile; where the file
+    system has no hard links, a rename that never replaces (:func:`rename_noreplace`).
+    """
+    try:
+        os.link(tmp, path)
+    except FileExistsError:
+        raise InputError(
+            f"{given} appeared while it was written (another process?): it is left as it is "
+            "and this file is not kept; write it again, or to another name"
+        ) from None
+    except OSError as err:
+        if err.errno not in _NO_LINKS:
+            raise
+        try:
+            rename_noreplace(tmp, path)
+        except FileExistsError:
+            raise InputError(
+                f"{given} appeared while it was written (another process?): it is left as "
+                "it is and this file is not kept; write it again, or to another name"
+            ) from None
+    else:
+        os.unlink(tmp)
+
+
+#: What ``os.link`` answers on a file system without hard links.
+_NO_LINKS = {
+    getattr(errno, name)
+    for name in ("EPERM", "ENOTSUP", "EOPNOTSUPP", "EXDEV", "EMLINK", "ENOSYS", "EACCES")
+    if hasattr(errno, name)
+}
 
 
 @contextlib.contextmanager

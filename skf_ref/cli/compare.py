@@ -60,6 +60,7 @@ def add_parser(subparsers: Any) -> None:
         "a float32 implementation)",
     )
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the result as JSON")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --json file")
     parser.set_defaults(run=run)
 
 
@@ -85,10 +86,13 @@ def run(args: argparse.Namespace) -> Comparison:
             name="argument --json",
             suffixes=(".json",),
             inputs={"CASE_FILE": args.case, "THEIRS": args.theirs},
+            overwrite=args.overwrite,
+            overwrite_hint="give --overwrite to replace it",
         )
     result = compare(args.case, args.theirs, tolerance=args.tolerance)
     if args.json is not None:
-        with atomic_path(args.json) as tmp:
+        # without --overwrite, a file that appeared meanwhile is never replaced
+        with atomic_path(args.json, overwrite=args.overwrite) as tmp:
             tmp.write_text(json.dumps(result.to_dict(), indent=1) + "\n", encoding="utf-8")
     print(result.report())
     if not result.agrees:

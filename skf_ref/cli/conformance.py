@@ -51,8 +51,10 @@ def add_parser(subparsers: Any) -> None:
         description="Copy the pinned conformance suite (every case's inputs and expected "
         "outputs, one file per case and format, and manifest.json with their sha256) and "
         "the runners run_cases.m and run_cases.py to DIR. The files are the suite's, byte "
-        "for byte, whatever the version of skf_ref. A runner already in DIR that you "
-        "adapted is kept: the shipped one is written beside it (run_cases_shipped.py).",
+        "for byte, whatever the version of skf_ref. A file of DIR named like a case or the "
+        "manifest that holds other bytes is replaced only with --overwrite (the suite's own "
+        "bytes stay as they are). A runner already in DIR that you adapted is kept: the "
+        "shipped one is written beside it (run_cases_shipped.py).",
         epilog=_EXAMPLES,
     )
     export.add_argument("directory", type=Path, metavar="DIR", help="folder (made if missing)")
@@ -71,6 +73,12 @@ def add_parser(subparsers: Any) -> None:
         help="the suite version: 4 (this skf_ref's, the default: version 3's cases and two "
         "of the stationary AR(1) prior), or 3 or 2 (their files byte for byte, as earlier "
         "skf_ref exported them)",
+    )
+    export.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace files of DIR named like the suite's cases or manifest that hold other "
+        "bytes (never an adapted runner)",
     )
     export.add_argument("--quiet", action="store_true", help="no summary")
     export.set_defaults(run=run_export)
@@ -91,11 +99,17 @@ def run_export(args: argparse.Namespace) -> list[Path]:
     """
     import warnings
 
+    from .._utils.checks import InputError
     from ..conformance import export, manifest
 
     with warnings.catch_warnings(record=True) as kept:
         warnings.simplefilter("always", UserWarning)
-        written = export(args.directory, args.format, suite=args.suite)
+        try:
+            written = export(
+                args.directory, args.format, suite=args.suite, overwrite=args.overwrite
+            )
+        except InputError as err:  # the library's advice, as the command line's flag
+            raise InputError(str(err).replace("overwrite=True", "--overwrite")) from None
     for warning in kept:  # a runner the user edited: kept, the shipped one beside it
         print(f"skf-ref: note: {warning.message}", file=sys.stderr)
     if not args.quiet:

@@ -62,6 +62,12 @@ def add_parser(subparsers: argparse._SubParsersAction[Parser]) -> None:
         "otherwise; the demo says which.",
     )
     demo.add_argument("--out", type=Path, default=Path("skf-demo"), help="output folder")
+    demo.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the files of --out named like the demo's outputs (metrics.csv, "
+        "settings.json, ...)",
+    )
     demo.add_argument("--snr-db", type=db(), default=30.0, help="data peak SNR (dB)")
     add_skf_options(
         demo,
@@ -149,6 +155,7 @@ def run(args: argparse.Namespace) -> Demo:
             exponent=args.exponent,
             smoother=None if args.smoother == "none" else args.smoother,
             standardize=args.standardize,
+            overwrite=args.overwrite,
             verbose=not args.quiet,
         )
     except (InputError, MemoryError) as err:
@@ -199,6 +206,7 @@ _FLAGS = {
 def _as_flag(message: str) -> str:
     """The library's error, prefixed with the flag of the parameter it names."""
     name = re.findall(r"^[a-z_]*", message)[0]
+    message = message.replace("give overwrite=True", "give --overwrite")
     return f"{_FLAGS[name]}: {message}" if name in _FLAGS else message
 
 

@@ -186,10 +186,51 @@ def _route(args):
         from ..method._priors import DEFAULT_EP_SNR_DB
 
         args.ep_snr_db = DEFAULT_EP_SNR_DB  # the paper's random walk, at 0 dB
+    _check_route_options(args, mne_route)
     _check_outputs(args)
     if args.standardize is None and not mne_route:  # an array does not say which columns
         args.standardize = "column"  # form a position; the MNE route's operator decides
     return "mne" if mne_route else "arrays"
+
+
+def _check_route_options(args: argparse.Namespace, mne_route: bool) -> None:
+    """Refuse an option the route (or the file it is for) would leave unused, and an input
+    that is no file (a named pipe would block a reader), before any work."""
+    from ..io.files import takes_option
+    from ..io.variables import existing_file
+
+    for flag in ("--forward", "--evoked", "--leadfield", "--data", "--noise-cov"):
+        given = getattr(args, flag[2:].replace("-", "_"))
+        try:
+            if given is not None:
+                existing_file(given)
+        except InputError as err:
+            raise InputError(f"argument {flag}: {err}") from None
+
+    if mne_route:
+        only = {"--key": args.key is not None, "--average-reference": args.average_reference}
+        used = [flag for flag, given in only.items() if given]
+        if used:
+            raise InputError(
+                f"argument {used[0]}: the array route's (--leadfield/--data); the MNE route "
+                "reads MNE files, and gives them the average reference itself"
+            )
+    elif args.pick_ori != "none":
+        raise InputError(
+            "argument --pick-ori: the MNE route's (--forward/--evoked); the array route "
+            "writes every column of the estimate (.npz)"
+        )
+    data = args.evoked if mne_route else args.data
+    if args.condition is not None and not takes_option(data, "condition"):
+        raise InputError(
+            f"argument --condition: {data} is not an MNE -ave.fif: it holds one recording, "
+            "no conditions to choose"
+        )
+    if args.key is not None and not any(takes_option(f, "key") for f in (args.leadfield, data)):
+        raise InputError(
+            "argument --key: names a variable of .npz and .mat files, and neither --leadfield "
+            "nor --data is one"
+        )
 
 
 def _outputs(args: argparse.Namespace) -> dict[str, list[Path]]:
@@ -295,6 +336,12 @@ def _read_cov(path):
 
     import mne
 
+    from ..io.variables import existing_file
+
+    try:
+        existing_file(path)  # a named pipe would block MNE's reader
+    except InputError as err:
+        raise InputError(f"argument --noise-cov: {err}") from None
     try:
         with warnings.catch_warnings():  # MNE's advice on file names: we read any name
             warnings.filterwarnings("ignore", "This filename .* does not conform to MNE")
@@ -393,12 +440,16 @@ def _mne_route(args):
 
 def _array_route(args):
 
-    from ..io.files import read_data, read_leadfield
+    from ..io.files import read_data, read_leadfield, takes_option
     from ..method import reconstruct
     from ..method._tuning import choose_priors
 
-    leadfield = read_leadfield(args.leadfield, key=args.key)
-    recording = read_data(args.data, key=args.key, condition=args.condition)
+    key = {
+        path: args.key if takes_option(path, "key") else None
+        for path in (args.leadfield, args.data)
+    }
+    leadfield = read_leadfield(args.leadfield, key=key[args.leadfield])
+    recording = read_data(args.data, key=key[args.data], condition=args.condition)
     L, Y = leadfield.data, recording.data
     if leadfield.ch_names is not None and recording.ch_names is not None:
         missing = [name for name in recording.ch_names if name not in leadfield.ch_names]
@@ -513,7 +564,10 @@ def run(args: argparse.Namespace) -> Reconstruction:
     rec, stc, times, positions = (_mne_route if route == "mne" else _array_route)(args)
     if positions is not None and not isinstance(positions, np.ndarray):
         positions = np.concatenate(positions)
-    written = _write(args, route, rec, stc, times, positions)
+    try:
+        written = _write(args, route, rec, stc, times, positions)
+    except InputError as err:  # a file that appeared since the check: the flag to replace it
+        raise InputError(str(err).replace("give overwrite=True", "give --overwrite")) from None
     if not args.quiet:
         names = ", ".join(str(path) for path in written)
         print(f"wrote {names}", file=sys.stderr)
@@ -524,29 +578,33 @@ def _write(
     args: argparse.Namespace, route: str, rec: Any, stc: Any, times: Any, positions: Any
 ) -> list[Path]:
     """The estimate, its settings beside it and the figure; each file whole or absent."""
-    import numpy as np
 
     from .._utils.atomic_files import atomic_path
     from ..io.files import write_reconstruction, write_stc
 
-    components = rec.n_sources // len(positions) if positions is not None else 1
+    # columns per position: from the positions, else as given (--n-orient 3 on arrays)
+    components = rec.n_sources // len(positions) if positions is not None else args.n_orient or 1
     extra = {"log_likelihood": rec.log_likelihood, "theta0": rec.theta0, "q": rec.q}
     extra["channels"] = args.channels
+    # without --overwrite, a file that appeared since the check (a second run of the same
+    # command) is never replaced: each is published only where nothing is
+    keep = dict(overwrite=args.overwrite)
     if args.out.suffix == ".npz":
-        written = [write_reconstruction(args.out, rec, times=times, positions=positions)]
+        written = [write_reconstruction(args.out, rec, times=times, positions=positions, **keep)]
     else:
-        written = write_stc(args.out, stc)
-    with atomic_path(args.out.with_name(args.out.name + ".json")) as tmp:
+        written = write_stc(args.out, stc, **keep)
+    with atomic_path(args.out.with_name(args.out.name + ".json"), **keep) as tmp:
         tmp.write_text(json.dumps(_settings(args, route, extra), indent=1, default=str) + "\n")
     if args.plot is not None:
         from ..study.plots import plot_estimate
+        from ..study.plots.style import finish
 
-        plot_estimate(  # written whole or not at all (atomic_path)
+        figure = plot_estimate(
             rec.amplitude(components if components in (1, 3) else 1),
-            times if times is not None else np.arange(rec.n_times),
+            times,  # None: the axis counts samples
             positions if components in (1, 3) else None,
             title=f"SKF, exponent {args.exponent:g}, "
             + ("no smoothing" if args.smoother == "none" else args.smoother),
-            path=args.plot,
         )
+        finish(figure, args.plot, **keep)  # written whole or not at all (atomic_path)
     return written

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from .._utils.atomic_files import atomic_path
-from .._utils.checks import InputError, check_choice, check_path
+from .._utils.checks import InputError, check_choice, check_instance, check_path
 from ..version import __version__
 from .case_files import FORMATS, read_case, write_case
 from .cases import (
@@ -262,14 +262,17 @@ def export(
     directory: str | os.PathLike,
     formats: Sequence[str] = FORMATS,
     suite: int = CONFORMANCE_VERSION,
+    overwrite: bool = False,
 ) -> list[Path]:
     """Copy the suite's files in ``formats``, its manifest and the runners to ``directory``.
 
     The case files and ``manifest.json`` are the pinned ones, byte for byte: the manifest
-    lists every file of the suite (both formats) with its sha256. A runner already in
-    ``directory`` that differs from the one this package ships (one the user adapted, as
-    its docstring invites) is never replaced: the shipped one is written beside it as
-    ``run_cases_shipped.py`` (or ``.m``), with a warning.
+    lists every file of the suite (both formats) with its sha256. A file of ``directory``
+    named like one of them that holds other bytes (a file of the user's, another suite's)
+    is replaced only with ``overwrite=True``; one that holds the same bytes (an earlier
+    export) stays. A runner already in ``directory`` that differs from the one this package
+    ships (one the user adapted, as its docstring invites) is never replaced: the shipped
+    one is written beside it as ``run_cases_shipped.py`` (or ``.m``), with a warning.
 
     Parameters
     ----------
@@ -279,6 +282,9 @@ def export(
     suite : int
         The suite version (``SUITES``): this version's by default; ``2`` or ``3`` copies
         that version's files, byte for byte as earlier packages exported them.
+    overwrite : bool
+        Replace the files named like the suite's cases and manifest that hold other
+        bytes. False: they are refused before anything is written, naming them.
 
     Returns
     -------
@@ -289,7 +295,8 @@ def export(
     ------
     skf_ref.InputError
         ``directory`` is a file; an unknown format; a runner and its ``_shipped`` copy
-        both edited (nothing is written).
+        both edited; without ``overwrite``, a file named like a case or the manifest
+        that holds other bytes (nothing is written).
 
     Examples
     --------
@@ -300,6 +307,7 @@ def export(
     """
     formats, suite = _checked_formats(formats), _checked_suite(suite)
     directory = check_path("directory", directory)
+    check_instance("overwrite", overwrite, bool, "True or False")
     if directory.exists() and not directory.is_dir():
         raise InputError(f"{directory} is a file: give a folder (made if missing)")
     names = [f"{e['name']}.{fmt}" for e in _pinned_manifest(suite)["cases"] for fmt in formats]
@@ -307,9 +315,25 @@ def export(
     folder = SUITES[suite]
     plan = [(folder / name, directory / name) for name in names]
     plan += [*runners, (folder / "manifest.json", directory / "manifest.json")]
+    same = {destination for source, destination in plan if _holds(destination, source)}
+    others = [
+        destination
+        for _, destination in plan
+        if destination not in same and (destination.exists() or destination.is_symlink())
+    ]
+    if others and not overwrite:
+        listed = ", ".join(path.name for path in others[:5])
+        raise InputError(
+            f"{directory} holds {len(others)} file(s) named like the suite's but with other "
+            f"contents ({listed}{', ...' if len(others) > 5 else ''}): nothing is written; "
+            "give overwrite=True to replace them, or export to another folder"
+        )
     directory.mkdir(parents=True, exist_ok=True)
     for source, destination in plan:
-        with atomic_path(destination) as tmp:
+        if destination in same:
+            continue  # the suite's very bytes already: nothing to replace
+        # a file that appears meanwhile is replaced only when overwrite says so
+        with atomic_path(destination, overwrite=overwrite) as tmp:
             shutil.copyfile(source, tmp)
     for runner, destination in runners:
         if destination.name != runner.name:
@@ -320,6 +344,11 @@ def export(
                 stacklevel=2,
             )
     return [destination for _, destination in plan]
+
+
+def _holds(destination: Path, source: Path) -> bool:
+    """Whether ``destination`` is a file with the bytes of ``source``."""
+    return destination.is_file() and sha256(destination) == sha256(source)
 
 
 def _checked_formats(formats):

@@ -112,9 +112,9 @@ def read_outputs(theirs: Any) -> tuple[dict[str, Any], str]:
 
     path = Path(theirs)
     if path.suffix == ".csv":
-        if not path.is_file():
-            raise InputError(f"{path}: no such file")
-        return _read_csv(path), str(path)
+        from ..io.variables import existing_file
+
+        return _read_csv(existing_file(path)), str(path)
     if path.suffix not in (".npz", ".mat"):
         raise InputError(f"{path}: give their outputs as .npz, .mat or .csv")
     variables = read_variables(path)  # lazy: only what compare takes is read, the rest named

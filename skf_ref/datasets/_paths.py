@@ -95,10 +95,16 @@ def _named(path: str | os.PathLike, name: str) -> Path:
     folder = Path(path).expanduser()
     missing = [n for n in FECNN_FILES if not (folder / _SUBFOLDER / n).is_file()]
     if missing:
+        # a folder named is used as it is, never filled by a download: the way to skf_ref's
+        # own copy is to name none (download=True alone would find this folder again)
+        instead = "give no path" if name == "path" else f"unset ${DATA_ENV}"
         raise InputError(
             f"{name} must be a folder holding fecnn/ with the feCNN files at the repository's "
-            f"paths, got {str(path)!r}, which lacks fecnn/{missing[0]} (use "
-            "skf_ref.datasets.data_path(download=True) to download them)"
+            f"paths, got {str(path)!r}, which lacks fecnn/{missing[0]}: put the files there "
+            f"(the {len(FECNN_FILES)} of skf_ref.datasets.FECNN_FILES, from feCNN at commit "
+            f"{FECNN_COMMIT[:7]}), or {instead} and call "
+            "skf_ref.datasets.data_path(download=True) to download them to skf_ref's cache "
+            "(a folder named is never filled by a download)"
         )
     return folder.resolve()
 

@@ -209,7 +209,8 @@ def pick_channels(
         In the info's order.
     dropped : dict
         ``{reason: [names]}`` for the reasons that apply: ``"bad"``, ``"not in the
-        forward"``, ``"not in the noise covariance"``.
+        forward"``, ``"not in the noise covariance"``, ``"bad in the noise covariance"``
+        (held by it, and in its ``bads``), each channel under the first that applies.
     """
     words = channel_types(meg, eeg)
     asked = _types_asked(meg, eeg)
@@ -219,13 +220,16 @@ def pick_channels(
     )
     kinds = dict(zip(info.ch_names, info.get_channel_types(), strict=True))
     candidates = [channel for channel, kind in kinds.items() if kind in asked]
-    in_covariance = None
+    in_covariance = held = None
     if covariance is not None:
-        in_covariance = set(covariance["names"]) - set(covariance["bads"])
+        held = set(covariance["names"])
+        in_covariance = held - set(covariance["bads"])
     reasons = {
         "bad": lambda c: c in info["bads"],
         "not in the forward": lambda c: c not in in_forward,
-        "not in the noise covariance": lambda c: (
+        "not in the noise covariance": lambda c: held is not None and c not in held,
+        # held by the covariance, but marked bad there (its "bads"): MNE leaves it out too
+        "bad in the noise covariance": lambda c: (
             in_covariance is not None and c not in in_covariance
         ),
     }

@@ -61,6 +61,7 @@ __all__ = [
     "read_data",
     "read_leadfield",
     "stc_files",
+    "takes_option",
     "write_reconstruction",
     "write_stc",
 ]
@@ -68,6 +69,45 @@ __all__ = [
 _LEADFIELD_KEYS = ("L", "leadfield", "lead_field", "G", "gain")
 _DATA_KEYS = ("Y", "data", "eeg")
 _MNE_DATA = (".fif", ".edf", ".bdf", ".vhdr", ".set", ".gdf", ".cnt", ".gz")
+#: The files that hold conditions (MNE's evoked files): ``condition`` chooses one.
+_EVOKED_FILES = ("-ave.fif", "_ave.fif", "-ave.fif.gz")
+_NAMED = (".npz", ".mat")  # the formats whose variables ``key`` names
+
+
+def takes_option(path: str | os.PathLike, option: str) -> bool:
+    """Whether the file ``path`` names is one that ``option`` of :func:`read_data` (or
+    :func:`read_leadfield`) applies to: ``"key"`` (.npz, .mat), ``"condition"`` (an MNE
+    ``-ave.fif``) or ``"sfreq"`` (.csv). An option given for another file is refused,
+    never dropped.
+
+    Examples
+    --------
+    >>> takes_option("Y.npz", "key"), takes_option("Y.npy", "key")
+    (True, False)
+    >>> takes_option("sample-ave.fif", "condition"), takes_option("s-epo.fif", "condition")
+    (True, False)
+    """
+    path = Path(path)
+    if option == "key":
+        return path.suffix in _NAMED
+    if option == "condition":
+        return path.name.lower().endswith(_EVOKED_FILES)
+    return path.suffix == ".csv"
+
+
+def _refuse_options(path: Path, **given: Any) -> None:
+    """Refuse an option ``path``'s format does not take (it would be dropped)."""
+    what = {
+        "key": "names a variable of .npz and .mat files",
+        "condition": "chooses among the conditions of an MNE -ave.fif",
+        "sfreq": "gives the sampling frequency of a .csv file, whose times are not in it",
+    }
+    for option, value in given.items():
+        if value is not None and not takes_option(path, option):
+            raise InputError(
+                f"{option}={value!r} {what[option]}, and {path} is not one: give no {option} "
+                "for it (it would be left unused)"
+            )
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,7 +200,8 @@ def read_leadfield(path: str | os.PathLike, *, key: str | None = None) -> LeadFi
     path : path-like
         ``.npy``, ``.npz``, ``.mat`` or MNE ``-fwd.fif`` (see the module docstring).
     key : str, optional
-        The variable holding the lead field in ``.npz`` and ``.mat`` files.
+        The variable holding the lead field in ``.npz`` and ``.mat`` files (refused for
+        another format, which has no variables).
 
     Returns
     -------
@@ -173,6 +214,7 @@ def read_leadfield(path: str | os.PathLike, *, key: str | None = None) -> LeadFi
         twice, or holds pickled objects.
     """
     path = existing_file(path)
+    _refuse_options(path, key=key)
     name = path.name.lower()
     if name.endswith(".fif") or name.endswith(".fif.gz"):
         return _forward(path)
@@ -228,6 +270,8 @@ def read_data(
         The variable holding the data in ``.npz`` and ``.mat`` files.
     condition : str or int, optional
         The evoked of an ``-ave.fif`` file that holds several: its comment or its index.
+        Each of ``key``, ``condition`` and ``sfreq`` is refused for a file it does not
+        apply to (:func:`takes_option`): it is never left unused silently.
     sfreq : float, optional
         ``.csv`` only: the sampling frequency (Hz). A first row that steps by ``1 / sfreq``
         is the times, any other first row is data (:mod:`skf_ref.io.tables`).
@@ -244,6 +288,7 @@ def read_data(
         pickled objects.
     """
     path = existing_file(path)
+    _refuse_options(path, key=key, condition=condition, sfreq=sfreq)
     name = path.name.lower()
     if path.suffix == ".npy":
         return Recording(check_array(f"{path}", read_npy(path), ("n_channels", "n_times")))
@@ -270,7 +315,7 @@ def read_data(
 def _mne_evoked(path: Path, name: str, condition: str | int | None) -> Any:
     mne = optional("mne", "mne", "reading an MNE evoked (-ave.fif)")
 
-    if name.endswith(("-ave.fif", "_ave.fif", "-ave.fif.gz")):
+    if name.endswith(_EVOKED_FILES):
         with reading(path, "MNE evoked data"):
             evokeds = mne.read_evokeds(path, proj=False, verbose=False)
         return _condition(evokeds, condition, path)
@@ -304,11 +349,13 @@ def write_reconstruction(
     times: ArrayLike | None = None,
     positions: ArrayLike | None = None,
     extra: Mapping[str, Any] | None = None,
+    overwrite: bool = True,
 ) -> Path:
     """Write a reconstruction, its settings and the package versions to a ``.npz`` file.
 
     The file appears whole or not at all (written under a temporary name, then renamed);
-    an existing file is replaced (through a symbolic link, the file it points to).
+    an existing file is replaced (through a symbolic link, the file it points to) unless
+    ``overwrite=False``.
 
     Parameters
     ----------
@@ -320,6 +367,9 @@ def write_reconstruction(
         With them the file also holds ``amplitude`` (n_positions, n_times).
     extra : dict, optional
         More scalar settings to record (e.g. ``pm_snr_db``).
+    overwrite : bool
+        Replace a file at ``path``. False: a file there is refused before any work, and
+        one that appears while this one is written is left as it is (an error).
 
     Returns
     -------
@@ -336,7 +386,7 @@ def write_reconstruction(
     from .._utils.provenance import package_versions
     from ..method import Reconstruction
 
-    path = check_output_path(path, suffixes=(".npz",))
+    path = check_output_path(path, suffixes=(".npz",), overwrite=overwrite)
     if not isinstance(reconstruction, Reconstruction):
         raise InputTypeError(
             f"reconstruction must be an skf_ref.Reconstruction, got {describe(reconstruction)}"
@@ -358,7 +408,7 @@ def write_reconstruction(
         k: np.asarray("none" if v is None else v) for k, v in settings.items()
     }
     scalars["log_likelihood"] = np.asarray(reconstruction.log_likelihood)
-    with atomic_path(path) as tmp:
+    with atomic_path(path, overwrite=overwrite) as tmp:
         np.savez_compressed(tmp, **arrays, **scalars)
     return path
 
@@ -421,7 +471,7 @@ def stc_files(path: str | os.PathLike, class_name: str, n_volumes: int = 1) -> l
     return [path.with_name(f"{stem}{tag}.stc") for tag in tags]
 
 
-def write_stc(path: str | os.PathLike, stc: Any) -> list[Path]:
+def write_stc(path: str | os.PathLike, stc: Any, *, overwrite: bool = True) -> list[Path]:
     """Write an MNE source estimate with MNE's writer, every file whole or absent.
 
     Parameters
@@ -432,6 +482,9 @@ def write_stc(path: str | os.PathLike, stc: Any) -> list[Path]:
         ``NAME.stc`` or ``NAME.h5`` becomes these). A vector or mixed estimate is written
         to ``.h5`` only.
     stc : mne.SourceEstimate or mne.VolSourceEstimate or mne.MixedSourceEstimate or vector kin
+    overwrite : bool
+        Replace files at those names. False: an existing one is refused before any work,
+        and one that appears while they are written is left as it is (an error).
 
     Returns
     -------
@@ -454,13 +507,16 @@ def write_stc(path: str | os.PathLike, stc: Any) -> list[Path]:
     ):
         raise InputTypeError(f"stc must be an MNE source estimate, got {describe(stc)}")
     volumes = len(stc.vertices) if type(stc).__name__ == "VolSourceEstimate" else 1
-    finals = [check_output_path(f) for f in stc_files(path, type(stc).__name__, volumes)]
+    finals = [
+        check_output_path(f, overwrite=overwrite)
+        for f in stc_files(path, type(stc).__name__, volumes)
+    ]
     with temporary_folder(finals[0]) as tmp:
         try:
             stc.save(tmp / _stc_stem(path), path.suffix[1:], overwrite=True, verbose=False)
         except (ValueError, RuntimeError, OSError) as err:  # MNE's writers' own errors
             raise InputError(f"{path}: MNE cannot write this source estimate: {err}") from err
         for final in finals:
-            with atomic_path(final) as target:
+            with atomic_path(final, overwrite=overwrite) as target:
                 os.replace(tmp / final.name, target)
     return finals

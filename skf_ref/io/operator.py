@@ -163,7 +163,8 @@ class SKFOperator:
         The channels used, in the info's order.
     dropped : dict
         The channels of the types used that were left out, by reason (``"bad"``,
-        ``"not in the forward"``, ``"not in the noise covariance"``).
+        ``"not in the forward"``, ``"not in the noise covariance"``, ``"bad in the noise
+        covariance"``).
     info : mne.Info
         The info of the channels used, with every projector the whitener applies.
     whitener : ndarray, shape (rank, n_channels)

@@ -54,12 +54,13 @@ def apply_skf_raw(
     along all of them. Samples inside bad segments (annotations whose description starts
     with ``"bad"``, as MNE's readers reject them) are missing observations: the filter
     predicts across them without an update, so nothing inside a bad segment reaches the
-    estimate elsewhere, and the estimate there is NaN (docs/model.md §2); the log says which
-    segments were skipped. EP-SNR is over that sequence (docs/model.md §4: ``q`` is the
-    walk's variance over the ``stop - start`` samples), as for an evoked; the stationary
-    AR(1) prior (``time_constant_ms``) does not depend on its length. The estimate is
-    returned in memory, or, with ``out``, streamed to a zarr store one block of rows at a
-    time: no (n_sources, n_times) array is ever held whole.
+    estimate elsewhere, and the estimate there is NaN on every smoother (docs/model.md §2);
+    samples that are NaN in every channel of the recording itself are missing observations
+    too. The log says which segments were skipped, and why. EP-SNR is over that sequence
+    (docs/model.md §4: ``q`` is the walk's variance over the ``stop - start`` samples), as
+    for an evoked; the stationary AR(1) prior (``time_constant_ms``) does not depend on its
+    length. The estimate is returned in memory, or, with ``out``, streamed to a zarr store
+    one block of rows at a time: no (n_sources, n_times) array is ever held whole.
 
     Parameters
     ----------
@@ -143,7 +144,8 @@ def apply_skf_raw(
             reject_by_annotation="NaN" if reject_by_annotation else None,
             verbose=False,  # the segments skipped are logged below
         )
-        data = _select(operator, info, data, raw.times[start:stop])
+        annotated = _annotated(raw, needed, start, stop, reject_by_annotation)
+        data = _select(operator, info, data, raw.times[start:stop], annotated)
         rec = operator.reconstruct(
             data,
             exponent=exponent,
@@ -162,27 +164,61 @@ def apply_skf_raw(
     return (result, rec) if return_reconstruction else result
 
 
-def _select(operator, info, data, times):
+def _annotated(raw, picks, start, stop, reject):
+    """The samples from ``start`` to ``stop`` inside bad segments (``BAD_`` annotations),
+    as MNE's ``reject_by_annotation`` finds them (read off one channel)."""
+    if not reject:
+        return np.zeros(stop - start, bool)
+    _, kept = raw.get_data(
+        picks=picks[:1],
+        start=start,
+        stop=stop,
+        reject_by_annotation="omit",
+        return_times=True,
+        verbose=False,
+    )
+    return ~np.isin(raw.times[start:stop], kept)
+
+
+def _spans(mask, times):
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.view(np.int8), [0]])))
+    return [(times[a], times[b - 1]) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def _select(operator, info, data, times, annotated):
     """The operator's channels of ``data`` (n_channels, n_times), checked on the samples
-    outside bad segments; the samples inside them (NaN in every channel) stay NaN."""
+    outside bad segments; the samples inside them (NaN in every channel) stay NaN, as do
+    the samples the recording itself holds as NaN in every channel (``annotated`` tells
+    which are which: the log names each kind for what it is)."""
     missing = np.isnan(data).all(axis=0)
     if not missing.any():
         return operator.select(info, data, "raw")
+    gaps = missing & ~annotated  # NaN in the recording itself, no annotation
     if missing.all():
-        raise InputError(
-            "every sample from start to stop lies in a bad segment (BAD_ annotations): "
-            "nothing to reconstruct; give reject_by_annotation=False to use them"
+        why = (
+            "lies in a bad segment (BAD_ annotations): nothing to reconstruct; give "
+            "reject_by_annotation=False to use them"
+            if not gaps.any()
+            else "is NaN in every channel"
+            + (" or lies in a bad segment (BAD_ annotations)" if annotated.any() else "")
+            + ": nothing to reconstruct"
         )
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], missing.view(np.int8), [0]])))
-    segments = [(times[a], times[b - 1]) for a, b in zip(edges[::2], edges[1::2], strict=True)]
-    logger.info(
-        "    %d bad segment(s) (BAD_ annotations) skipped as missing observations, %d of %d "
-        "samples, no estimate there: %s",
-        len(segments),
-        np.count_nonzero(missing),
-        len(missing),
-        ", ".join(f"{a:.3f}-{b:.3f} s" for a, b in segments),
-    )
+        raise InputError(f"every sample from start to stop {why}")
+    for kind, mask in (
+        ("bad segment(s) (BAD_ annotations)", missing & annotated),
+        ("gap(s) of NaN in every channel of the recording (no annotation)", gaps),
+    ):
+        if not mask.any():
+            continue
+        segments = _spans(mask, times)
+        logger.info(
+            "    %d %s skipped as missing observations, %d of %d samples, no estimate there: %s",
+            len(segments),
+            kind,
+            np.count_nonzero(mask),
+            len(mask),
+            ", ".join(f"{a:.3f}-{b:.3f} s" for a, b in segments),
+        )
     picked = np.full((len(operator.ch_names), len(missing)), np.nan)
     picked[:, ~missing] = operator.select(info, data[:, ~missing], "raw")
     return picked

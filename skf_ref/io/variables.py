@@ -25,7 +25,7 @@ import numpy as np
 
 from .._utils.checks import InputError, check_path
 
-__all__ = ["Variables", "existing_file", "read_npy", "read_variables", "reading"]
+__all__ = ["Variables", "existing_file", "not_a_file", "read_npy", "read_variables", "reading"]
 
 _NPY_MAGIC = b"\x93NUMPY"
 _ZIP_MAGIC = b"PK\x03\x04"
@@ -67,8 +67,43 @@ def existing_file(path: object, name: str = "path") -> Path:
     if path.is_dir():
         raise InputError(f"{path} is a folder, not a file")
     if not path.is_file():
-        raise InputError(f"{path}: no such file")
+        raise InputError(f"{path}: {not_a_file(path)}")
     return path
+
+
+def not_a_file(path: Path) -> str:
+    """Why ``path``, which is no regular file, cannot be read as one (in words).
+
+    A named pipe or a device is not "no such file": reading it would wait for a writer,
+    or never end (``/dev/zero``).
+
+    Examples
+    --------
+    >>> not_a_file(Path("/dev/null"))
+    'not a regular file but a character device: give a file'
+    >>> not_a_file(Path("/no/such/file.npy"))
+    'no such file'
+    """
+    import os
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        if path.is_symlink():
+            return f"no such file (a link to {os.readlink(path)}, which does not exist)"
+        return "no such file"
+    except OSError as err:
+        return f"cannot be read: {err.strerror}"
+    kinds = (
+        (stat.S_ISFIFO, "a named pipe (FIFO)"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    )
+    kind = next((words for test, words in kinds if test(mode)), "not a file")
+    link = f" (a link to {os.readlink(path)})" if path.is_symlink() else ""
+    return f"not a regular file but {kind}{link}: give a file"
 
 
 @contextlib.contextmanager

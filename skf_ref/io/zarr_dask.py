@@ -302,7 +302,7 @@ def to_zarr(
         for name in names:
             # uncompressed: estimates in float64 hardly compress, and writing is the bound
             array = group.create_array(
-                name, shape=shape, chunks=(step, shape[1]), dtype="f8", compressors=None
+                name, shape=shape, chunks=(step, shape[1]), dtype="f8", **_checked_chunks()
             )
             _write_behind(reconstruction.blocks(name, rows=step), array.__setitem__)
     return zarr.open_group(path, mode="r")
@@ -339,7 +339,8 @@ def stc_to_zarr(
     zarr.Group
         Open for reading: the array ``"data"`` (n_positions, n_times), or (n_positions,
         3, n_times) for ``"vector"``, one shard per block of rows in chunks of about
-        ``TIME_CHUNK_BYTES`` (1 MiB) along time; attributes ``vertices`` (one list per
+        ``TIME_CHUNK_BYTES`` (1 MiB) along time, each chunk with its CRC-32C checksum;
+        attributes ``vertices`` (one list per
         source space), ``tmin``, ``tstep``, ``subject``, ``stc_class`` (MNE's class) and
         the settings. :func:`skf_ref.read_skf_stream` reads it back as a source estimate.
     """
@@ -378,10 +379,29 @@ def stc_to_zarr(
     shards = (step // k, *shape[1:-1], -(-T // times) * times)
     with new_store(path, overwrite, attributes) as group:
         array = group.create_array(
-            "data", shape=shape, chunks=chunks, shards=shards, dtype="f8", compressors=None
+            "data", shape=shape, chunks=chunks, shards=shards, dtype="f8", **_checked_chunks()
         )
         _write_behind(rows(reconstruction.blocks("z", rows=step)), array.__setitem__)
     return zarr.open_group(path, mode="r")
+
+
+def _checked_chunks() -> dict[str, Any]:
+    """How every array of a store is written: each chunk with its checksum, every chunk.
+
+    Uncompressed (estimates in float64 hardly compress, and writing is the bound), each
+    chunk followed by its CRC-32C (zarr's ``crc32c`` codec: a reader checks it, so a byte
+    changed or a chunk cut short is an error, never other numbers); every chunk written,
+    even one equal to the fill value, so that a missing chunk is always a missing file;
+    and NaN as the fill value, so that zarr reads a missing chunk as "no estimate", never
+    as zeros ("no activity"). :func:`skf_ref.read_skf_stream` refuses a missing chunk.
+    """
+    from zarr.codecs import Crc32cCodec
+
+    return dict(
+        compressors=[Crc32cCodec()],
+        fill_value=np.nan,
+        config={"write_empty_chunks": True},
+    )
 
 
 def _write_behind(blocks, write, limit=WRITE_BEHIND_BYTES):

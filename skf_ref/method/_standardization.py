@@ -287,7 +287,8 @@ def check_positions_seen(L: _Array, R: _Array, n_orient: int, what: str = "L") -
     Traceback (most recent call last):
     ...
     skf_ref._utils.checks.InputError: standardize='position' needs every orientation of a \
-position seen by the sensors: position 0 (columns 0-2 of L) has a singular block ...
+position seen by the sensors: position 0 (columns 0-2 of L) has a singular block, rank 2 < 3 \
+orientations ...
     """
     if n_orient == 1:
         return
@@ -298,12 +299,28 @@ position seen by the sensors: position 0 (columns 0-2 of L) has a singular block
     singular = np.flatnonzero(~(eigenvalues[:, 0] > POSITION_RCOND * eigenvalues[:, -1]))
     if len(singular):
         i = int(singular[0])
+        values = eigenvalues[i]
+        rank = int(np.count_nonzero(values > POSITION_RCOND * values[-1]))
+        whole = int(np.linalg.matrix_rank(Lw))  # only here, to say why
+        if whole < n_orient:
+            cause = (
+                f"{what}, whitened, has rank {whole} ({Lw.shape[0]} rows; a reference and the "
+                "noise covariance's projections each take one away): with fewer than "
+                f"{n_orient}, no position's {n_orient} orientations can be told apart; give "
+                "more channels"
+            )
+        else:
+            cause = (
+                "the sensors do not see one orientation of it (as MEG the radial one, in a "
+                "spherical head)"
+            )
         raise InputError(
             "standardize='position' needs every orientation of a position seen by the "
             f"sensors: position {i} (columns {n_orient * i}-{n_orient * i + n_orient - 1} of "
-            f"{what}) has a singular block ({len(singular)} such positions; condition "
-            f"number over {1 / POSITION_RCOND:.0e}): in MEG with a spherical head the radial "
-            "orientation is silent; use standardize='column', or fixed orientation"
+            f"{what}) has a singular block, rank {rank} < {n_orient} orientations "
+            f"({len(singular)} such positions; condition number over "
+            f"{1 / POSITION_RCOND:.0e}): {cause}; or use standardize='column', or fixed "
+            "orientation"
         )
 
 

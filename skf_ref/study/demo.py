@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._utils.atomic_files import atomic_path
-from .._utils.checks import InputError, check_choice, check_int
+from .._utils.checks import InputError, check_choice, check_instance, check_int, check_path
 from .._utils.log import logger, progress, verbosity
 from ..method import PAPER_SETTING
 from ..method._settings import STANDARDIZATIONS, check_smoother
@@ -163,6 +163,7 @@ def run_demo(
     exponent: float = 0.5,
     smoother: str | None = None,
     standardize: str = "position",
+    overwrite: bool = False,
     verbose: bool | str | int | None = None,
 ) -> Demo:
     """Simulate the P20/N20 scenario and its control; reconstruct them three ways.
@@ -172,6 +173,9 @@ def run_demo(
     out : path-like or None
         Folder to write :data:`OUTPUTS` into (created; checked before any computation);
         None: nothing is written.
+    overwrite : bool
+        Replace files of ``out`` named like :data:`OUTPUTS`. False: such a file is refused
+        before any computation (and one that appears meanwhile is never replaced).
     snr_db : float
         Peak SNR of the data (dB).
     seed : int
@@ -217,7 +221,8 @@ def run_demo(
     smoother = check_smoother(smoother)
     check_choice("standardize", standardize, STANDARDIZATIONS)
     seed = check_int("seed", seed, minimum=0)
-    folder = _output_folder(out)
+    check_instance("overwrite", overwrite, bool, "True or False")
+    folder = _output_folder(out, overwrite)
     with verbosity(verbose):
         testing = None if head == "sphere" else find_testing_data(testing_data)
         if head == "realistic" and testing is None:
@@ -280,7 +285,7 @@ def run_demo(
         demo = Demo(model, sims, methods, reconstructions, estimates, table, settings)
         if folder is not None:
             with progress("figures and files"):
-                write(demo, folder)
+                write(demo, folder, overwrite)
     return demo
 
 
@@ -294,14 +299,22 @@ def _check_size(n_positions: int, montage: str) -> None:
     check_size(n_positions, montage, extra=outputs, name="n_positions")
 
 
-def _output_folder(out: str | os.PathLike | None) -> Path | None:
-    """``out`` as a Path, refused before any work if it cannot become a folder."""
+def _output_folder(out: str | os.PathLike | None, overwrite: bool = True) -> Path | None:
+    """``out`` as a Path, refused before any work if it cannot become a folder, or if it
+    holds a file named like an output and ``overwrite`` is False."""
     if out is None:
         return None
-    folder = Path(out)
+    folder = check_path("out", out)
     existing = next(p for p in (folder, *folder.parents) if p.exists())
     if not existing.is_dir():
         raise InputError(f"out must be a folder, got {str(folder)!r}; {str(existing)!r} is a file")
+    there = [name for name in OUTPUTS if os.path.lexists(folder / name)]
+    if there and not overwrite:
+        raise InputError(
+            f"out={str(folder)!r} holds {', '.join(there)}: the demo writes files of these "
+            "names; "
+            "give overwrite=True to replace them, or another folder"
+        )
     return folder
 
 
@@ -445,7 +458,7 @@ def _settings(
     }
 
 
-def write(demo: Demo, out: str | os.PathLike) -> None:
+def write(demo: Demo, out: str | os.PathLike, overwrite: bool = True) -> None:
     """Write a demo's :data:`OUTPUTS` into a folder, each file atomically.
 
     Parameters
@@ -454,12 +467,16 @@ def write(demo: Demo, out: str | os.PathLike) -> None:
         What :func:`run_demo` returned.
     out : path-like
         The folder (created if needed).
+    overwrite : bool
+        Replace files of these names there. False: one there is refused before anything
+        is written, and one that appears meanwhile stays as it is (an error).
     """
     import pandas as pd
 
     folder = Path(out)
-    _output_folder(folder)  # refused if it cannot become a folder
+    _output_folder(folder, overwrite)  # refused if it cannot become a folder
     folder.mkdir(parents=True, exist_ok=True)
+    keep = dict(overwrite=overwrite)  # never replace a file that appeared meanwhile
     present = demo.simulations["present"]
     arrays = {}
     for (key, data), rec in demo.reconstructions.items():
@@ -467,7 +484,7 @@ def write(demo: Demo, out: str | os.PathLike) -> None:
     for data, sim in demo.simulations.items():
         arrays[f"amplitude_sloreta{_SUFFIX[data]}"] = demo.estimates["sLORETA", data]
         arrays[f"Y{_SUFFIX[data]}"] = sim.Y
-    with atomic_path(folder / "reconstruction.npz") as tmp:
+    with atomic_path(folder / "reconstruction.npz", **keep) as tmp:
         np.savez_compressed(
             tmp,
             **arrays,
@@ -477,19 +494,19 @@ def write(demo: Demo, out: str | os.PathLike) -> None:
             true_positions=present.truth.positions,
             true_waveforms=present.truth.waveforms,
         )
-    with atomic_path(folder / "settings.json") as tmp:
+    with atomic_path(folder / "settings.json", **keep) as tmp:
         tmp.write_text(json.dumps(demo.settings, indent=1) + "\n")
-    with atomic_path(folder / "metrics.csv") as tmp:
+    with atomic_path(folder / "metrics.csv", **keep) as tmp:
         demo.metrics.to_csv(tmp, index_label="metric")
-    with atomic_path(folder / "metrics_columns.csv") as tmp:
+    with atomic_path(folder / "metrics_columns.csv", **keep) as tmp:
         calibrated = "detection_threshold" in demo.metrics.index
         rows = [*COLUMNS, *(DETECTION_COLUMNS if calibrated else ())]
         columns = pd.DataFrame(rows, columns=["metric", "meaning", "unit", "better"])
         columns.to_csv(tmp, index=False)
-    _figures(demo, folder)
+    _figures(demo, folder, keep)
 
 
-def _figures(demo: Demo, out: Path) -> None:
+def _figures(demo: Demo, out: Path, keep: dict[str, bool]) -> None:
     from . import plots
 
     present = demo.simulations["present"]
@@ -506,16 +523,16 @@ def _figures(demo: Demo, out: Path) -> None:
         row = demo.metrics.loc["detection_threshold"]
         thresholds = {demo.methods[c.split(", ", 1)[0]]: float(v) for c, v in row.items()}
         title += "\ndetected: the thalamus above a threshold 5 % of null runs exceed"
-    with atomic_path(out / "comparison.png") as tmp:
+    with atomic_path(out / "comparison.png", **keep) as tmp:
         plots.plot_comparison(
             estimates, demo.head, truth, absent={"deep absent": ("deep",)}, title=title,
             path=tmp, thresholds=thresholds,
         )  # fmt: skip
     for key in ("skf", "paper"):
         rec = demo.reconstructions[key, "present"]
-        with atomic_path(out / f"time_courses_{key}.png") as tmp:
+        with atomic_path(out / f"time_courses_{key}.png", **keep) as tmp:
             plots.plot_time_courses(rec, demo.head, truth, title=demo.methods[key], path=tmp)
-        with atomic_path(out / f"projections_{key}.png") as tmp:
+        with atomic_path(out / f"projections_{key}.png", **keep) as tmp:
             plots.plot_average_reconstruction(
                 rec,
                 demo.head,

@@ -371,7 +371,14 @@ def smooth(
         P_s = rts_covariances(f["P_filt"], f["P_pred"], A)
         Sigma = prior_covariances(A, Q, P0, len(x))
         z = standardize_smoothed(x, P_s, Sigma, exponent, block)
+        z[_missing(f)] = np.nan  # no estimate at a missing step, as on every smoother
     return x, z
+
+
+def _missing(f: dict[str, Any]) -> NDArray[np.bool_]:
+    """The missing steps of a filter's output (none when it does not say)."""
+    missing = f.get("missing")
+    return np.zeros(len(f["x_filt"]), bool) if missing is None else missing
 
 
 def result(

@@ -190,6 +190,7 @@ def run(
         x, P_smoothed, _, _ = kf.rts_smoother(f["x_filt"], P_filt)
         Sigma = _prior_covariances(model.matrix("theta0"), kf.F, kf.Q, T)
         z = standardize_smoothed(x, P_smoothed, Sigma, exponent, kf.weight_blocks.shape[-1])
+        z[f["missing"]] = np.nan  # no estimate at a missing step, as on every smoother
     return result(f, x, z, model, exponent, smoother, "filterpy", (standardize, n_orient))
 
 

@@ -117,6 +117,8 @@ class SpectralRows:
             self.smoothed_standardization.applications += 1  # kept from a second data set
             # Sigma_t^{-1/2} x^s_t = V xi^s_t / sigma_t^(1/2)         docs/model.md §3
             self.u_smoothed = self.xi_smoothed * np.sqrt(inverse_sigma)[:, None]
+            # no estimate at a missing step, as on every smoother (its z is NaN there)
+            self.u_smoothed[recursions.missing] = np.nan
         self._delta: Any = None
 
     # --- the LazyOutputs protocol -----------------------------------------------------------

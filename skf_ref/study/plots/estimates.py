@@ -23,7 +23,7 @@ __all__ = ["plot_estimate", "plot_landscape"]
 
 def plot_estimate(
     amplitude: ArrayLike,
-    times: ArrayLike,
+    times: ArrayLike | None,
     positions: ArrayLike | None = None,
     n_strongest: int = 5,
     title: str | None = None,
@@ -41,8 +41,8 @@ def plot_estimate(
     ----------
     amplitude : ndarray, shape (n_positions, n_times)
         Per-position amplitude (e.g. ``Reconstruction.amplitude(3)`` or ``stc.data``).
-    times : ndarray, shape (n_times,)
-        Seconds.
+    times : ndarray, shape (n_times,), or None
+        Seconds; None: the samples are numbered from 0 (the axis says "sample").
     positions : ndarray, shape (n_positions, 3), optional
         Metres, head coordinates.
     n_strongest : int
@@ -58,8 +58,11 @@ def plot_estimate(
         The figure (saved to ``path`` if given).
     """
 
-    times_ms = np.asarray(times, dtype=float) * 1e3
     amplitude = check_amplitude(amplitude, "n_positions")
+    if times is None:  # no times known: samples, never a made-up time axis
+        times_ms, axis = np.arange(amplitude.shape[1], dtype=float), "sample"
+    else:
+        times_ms, axis = np.asarray(times, dtype=float) * 1e3, "time (ms)"
     if amplitude.shape[1] != times_ms.size:
         raise InputError(
             f"times must have shape ({amplitude.shape[1]},) like amplitude's columns, got "
@@ -71,7 +74,7 @@ def plot_estimate(
     strongest = np.argsort(amplitude.max(axis=1))[::-1][:count]
     for index in strongest:
         axes[0].plot(times_ms, amplitude[index], lw=1.4, label=f"position {index}")
-    axes[0].set_xlabel("time (ms)")
+    axes[0].set_xlabel(axis)
     axes[0].set_ylabel("amplitude")
     axes[0].legend(fontsize="x-small")
     axes[0].set_title(f"{len(strongest)} strongest positions")
@@ -92,7 +95,8 @@ def plot_estimate(
                 s=12,
             )
             ax.set_aspect("equal")
-            ax.set_title(f"{name} MIP, {times_ms[k]:g} ms")
+            at = f"sample {k}" if times is None else f"{times_ms[k]:g} ms"
+            ax.set_title(f"{name} MIP, {at}")
             ax.set_xlabel(AXIS_LABELS[horiz])
             ax.set_ylabel(AXIS_LABELS[vert])
         fig.colorbar(dots, ax=axes[1:], label="dB re. maximum at that time", shrink=0.8)

@@ -31,7 +31,7 @@ def figure(width: float, height: float) -> "Figure":
     return Figure(figsize=(width, height), layout="constrained")
 
 
-def finish(fig: "Figure", path: str | os.PathLike | None) -> "Figure":
+def finish(fig: "Figure", path: str | os.PathLike | None, *, overwrite: bool = True) -> "Figure":
     """Save a figure if a path is given, and return it.
 
     The file holds no software stamp (the same figure, the same bytes), and appears whole
@@ -43,6 +43,9 @@ def finish(fig: "Figure", path: str | os.PathLike | None) -> "Figure":
         The figure.
     path : path-like or None
         Where to save it (its format from the suffix); None: not saved.
+    overwrite : bool
+        Replace a file at ``path``; False: one there when the figure is published stays,
+        and this one is not kept (an error).
 
     Returns
     -------
@@ -52,7 +55,7 @@ def finish(fig: "Figure", path: str | os.PathLike | None) -> "Figure":
     if path is not None:  # no software version in the file: the same figure, the same bytes
         from ..._utils.atomic_files import atomic_path
 
-        with atomic_path(path) as tmp:
+        with atomic_path(path, overwrite=overwrite) as tmp:
             fig.savefig(tmp, dpi=DPI, metadata={"Software": None})
     return fig
 

@@ -1,0 +1,285 @@
+"""Every input answered, v5 (issue 44): options never dropped, messages that name the cause.
+
+Items 13-19 of the issue, and the estimate inside bad segments, NaN on every smoother.
+"""
+
+import os
+
+import mne
+import numpy as np
+import pytest
+
+import skf_ref
+from skf_ref import InputError, apply_skf, apply_skf_raw, make_skf_operator, reconstruct
+from skf_ref.io import read_data, read_leadfield, read_skf_operator
+from skf_ref.method._standardization import check_positions_seen
+
+
+@pytest.fixture(scope="module")
+def arrays(tmp_path_factory):
+    """A 16-channel lead field of 10 positions x 3 and data of a source at position 4."""
+    folder = tmp_path_factory.mktemp("arrays")
+    rng = np.random.default_rng(0)
+    L = rng.standard_normal((16, 30))
+    L -= L.mean(axis=0)
+    x = np.zeros((30, 60))
+    x[13] = 5 * np.hanning(60)  # position 4, its y component
+    np.save(folder / "L.npy", L)
+    np.save(folder / "Y.npy", L @ x + 0.1 * rng.standard_normal((16, 60)))
+    np.savez(folder / "Y.npz", Y=np.load(folder / "Y.npy"))
+    return folder
+
+
+def _arrays(folder, *more):
+    return ["reconstruct", "--leadfield", str(folder / "L.npy"), "--data", str(folder / "Y.npy"),
+            "--noise-std", "0.1", *more]  # fmt: skip
+
+
+# --- item 13: an option the route or the file does not use is refused ---------------------
+
+
+@pytest.mark.parametrize(
+    "more, message",
+    [
+        (["--condition", "1"],
+         "argument --condition: {Y} is not an MNE -ave.fif: it holds one recording, no "
+         "conditions to choose"),
+        (["--pick-ori", "vector"], "argument --pick-ori: the MNE route's (--forward/--evoked)"),
+        (["--key", "Y"], "argument --key: names a variable of .npz and .mat files, and neither"),
+    ],
+)  # fmt: skip
+def test_the_array_route_refuses_what_it_would_drop(cli, arrays, tmp_path, more, message):
+    result = cli(*_arrays(arrays, *more, "--out", str(tmp_path / "o.npz")))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert message.format(Y=arrays / "Y.npy") in result.stderr
+    assert not any(tmp_path.iterdir())  # before any work
+
+
+def test_key_goes_to_the_file_that_has_variables(cli, arrays, tmp_path):
+    arguments = _arrays(arrays, "--key", "Y", "--out", str(tmp_path / "o.npz"), "--quiet")
+    arguments[4] = str(arrays / "Y.npz")  # the lead field .npy, the data .npz
+    assert cli(*arguments).returncode == 0
+
+
+@pytest.fixture(scope="module")
+def mne_files(tmp_path_factory, mne_setup):
+    folder = tmp_path_factory.mktemp("mne")
+    epochs = mne_setup["make_epochs"](target=300, seed=6, n_epochs=5)
+    epochs.save(folder / "e-epo.fif", verbose=False)
+    mne.write_forward_solution(folder / "f-fwd.fif", mne_setup["forward"], verbose=False)
+    return folder
+
+
+@pytest.mark.parametrize(
+    "more, message",
+    [
+        (["--key", "Y"], "argument --key: the array route's (--leadfield/--data)"),
+        (["--average-reference"], "argument --average-reference: the array route's"),
+        (["--condition", "0"], "argument --condition: {evoked} is not an MNE -ave.fif"),
+    ],
+)
+def test_the_mne_route_refuses_what_it_would_drop(cli, mne_files, tmp_path, more, message):
+    evoked = mne_files / "e-epo.fif"
+    arguments = ["reconstruct", "--forward", str(mne_files / "f-fwd.fif"), "--evoked"]
+    arguments += [str(evoked), "--noise-std", "1e-6", "--out", str(tmp_path / "o.npz"), *more]
+    result = cli(*arguments)
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert message.format(evoked=evoked) in result.stderr
+    assert not any(tmp_path.iterdir())
+
+
+def test_the_readers_refuse_an_option_the_file_does_not_take(arrays):
+    with pytest.raises(InputError, match=r"key='Y' names a variable of .npz and .mat files, and "
+                       r".*L.npy is not one: give no key"):  # fmt: skip
+        read_leadfield(arrays / "L.npy", key="Y")
+    with pytest.raises(InputError, match=r"condition=1 chooses among the conditions of an MNE"):
+        read_data(arrays / "Y.npy", condition=1)
+    with pytest.raises(InputError, match=r"sfreq=1000.0 gives the sampling frequency of a .csv"):
+        read_data(arrays / "Y.npz", sfreq=1000.0)
+    assert read_data(arrays / "Y.npz", key="Y").data.shape == (16, 60)
+
+
+# --- item 14: a folder named in SKF_REF_DATA that lacks files ------------------------------
+
+
+def test_an_incomplete_named_folder_says_how_to_get_the_files(tmp_path, monkeypatch):
+    from skf_ref.datasets import _paths as paths
+
+    monkeypatch.setenv(paths.DATA_ENV, str(tmp_path))
+    # the advice was data_path(download=True), which read the same variable and failed alike
+    with pytest.raises(InputError, match=r"lacks fecnn/LICENSE: put the files there .* or "
+                       r"unset \$SKF_REF_DATA and call skf_ref.datasets.data_path\(download=True\)"
+                       ):  # fmt: skip
+        skf_ref.datasets.data_path(download=True)
+    with pytest.raises(InputError, match=r"or give no path and call .*data_path\(download=True"):
+        skf_ref.datasets.data_path(tmp_path)
+
+
+# --- item 15: a channel bad in the noise covariance ----------------------------------------
+
+
+@pytest.mark.filterwarnings("ignore:Too few samples")
+def test_a_channel_bad_in_the_noise_covariance_is_named_so(mne_setup):
+    epochs = mne_setup["make_epochs"](target=300, seed=6, n_epochs=5)
+    cov = mne.compute_covariance(epochs, verbose=False)
+    cov["bads"] = ["Oz"]  # held by the covariance, marked bad there
+    held = mne.pick_channels_cov(cov, exclude=["Iz"], verbose=False)  # not held at all
+    operator = make_skf_operator(epochs.info, mne_setup["forward"], held, verbose=False)
+    assert operator.dropped == {
+        "not in the noise covariance": ["Iz"],
+        "bad in the noise covariance": ["Oz"],
+    }
+
+
+# --- item 16: position blocks that no data can fill -----------------------------------------
+
+
+def test_too_few_channels_for_three_orientations_is_named(mne_setup):
+    info = mne.pick_info(mne_setup["info"], [0, 1, 2])
+    operator = make_skf_operator(info, mne_setup["forward"], noise_std=1e-6, verbose=False)
+    data = np.random.default_rng(0).standard_normal((3, 20)) * 1e-6
+    evoked = mne.EvokedArray(data - data.mean(axis=0), info, verbose=False)
+    evoked.set_eeg_reference("average", projection=True, verbose=False)
+    with pytest.raises(InputError, match=r"has a singular block, rank 2 < 3 orientations .*: "
+                       r"L, whitened, has rank 2 \(2 rows; a reference .*"
+                       r"no position's 3 orientations can be told apart; give more channels"
+                       ) as error:  # fmt: skip
+        apply_skf(evoked, operator, standardize="position")
+    assert "MEG" not in str(error.value)  # there is none
+
+
+def test_an_unseen_orientation_is_named_as_such():
+    L = np.random.default_rng(1).standard_normal((8, 6))
+    L[:, 2] = L[:, 0] + L[:, 1]  # position 0 sees two orientations of its three
+    with pytest.raises(InputError, match=r"position 0 \(columns 0-2 of L\) has a singular "
+                       r"block, rank 2 < 3 .*: the sensors do not see one orientation of it"
+                       ):  # fmt: skip
+        check_positions_seen(L, np.eye(8), 3)
+
+
+# --- item 17: NaN in the recording is no BAD_ annotation ------------------------------------
+
+
+def test_a_gap_of_nan_is_logged_as_what_it_is(mne_setup, capsys):
+    epochs = mne_setup["make_epochs"](target=300, seed=21, n_epochs=4)
+    operator = make_skf_operator(epochs.info, mne_setup["forward"], noise_std=5e-6,
+                                 verbose=False)  # fmt: skip
+    data = np.concatenate(list(epochs.get_data()), axis=1)
+    data[:, 100:120] = np.nan
+    raw = mne.io.RawArray(data, epochs.info, verbose=False)
+    raw.set_annotations(mne.Annotations([0.2], [0.01], ["BAD_blink"]))
+    capsys.readouterr()
+    stc = apply_skf_raw(raw, operator)
+    log = capsys.readouterr().err
+    assert "1 bad segment(s) (BAD_ annotations) skipped as missing observations, 10 of 240" in log
+    gap = "1 gap(s) of NaN in every channel of the recording (no annotation) skipped as "
+    assert gap + "missing observations, 20 of 240 samples, no estimate there: 0.100-0.119" in log
+    assert np.isnan(stc.data[:, 100:120]).all() and np.isnan(stc.data[:, 200:210]).all()
+    raw._data[:] = np.nan
+    with pytest.raises(InputError, match=r"every sample from start to stop is NaN in every "
+                       r"channel or lies in a bad segment"):  # fmt: skip
+        apply_skf_raw(raw, operator)
+
+
+# --- item 18: a named pipe, a device --------------------------------------------------------
+
+
+@pytest.fixture
+def odd_files(tmp_path):
+    os.mkfifo(tmp_path / "pipe.csv")
+    os.mkfifo(tmp_path / "pipe-skf.h5")
+    os.mkfifo(tmp_path / "pipe-cov.fif")
+    (tmp_path / "zero.npz").symlink_to("/dev/zero")
+    return tmp_path
+
+
+def test_what_is_no_regular_file_is_named(cli, odd_files, arrays):
+    from skf_ref.conformance import export
+
+    export(odd_files / "cases", ["npz"])
+    case = odd_files / "cases" / "original_skf.npz"
+    result = cli("compare", str(case), str(odd_files / "pipe.csv"))
+    assert result.returncode == 2
+    assert "pipe.csv: not a regular file but a named pipe (FIFO): give a file" in result.stderr
+    result = cli("compare", str(case), str(odd_files / "zero.npz"))
+    assert (
+        result.returncode == 2
+        and ("zero.npz: not a regular file but a character device (a link to /dev/zero)")
+        in result.stderr
+    )
+    with pytest.raises(InputError, match=r"pipe-skf.h5: not a regular file but a named pipe"):
+        read_skf_operator(odd_files / "pipe-skf.h5")
+    for flag in ("--noise-cov", "--data", "--leadfield"):
+        arguments = _arrays(arrays, "--out", str(odd_files / "o.npz"))
+        if flag == "--noise-cov":  # MNE's reader would wait for a writer
+            arguments[arguments.index("--noise-std") : arguments.index("--out")] = [
+                flag, str(odd_files / "pipe-cov.fif")]  # fmt: skip
+        else:
+            arguments[arguments.index(flag) + 1] = str(odd_files / "pipe.csv")
+        result = cli(*arguments)
+        assert result.returncode == 2 and result.stderr.count("\n") == 1
+        assert f"argument {flag}: {odd_files}/pipe" in result.stderr
+        assert "not a regular file but a named pipe (FIFO): give a file" in result.stderr
+    with pytest.raises(InputError, match=r"zero.npz: not a regular file but a character device"):
+        read_data(odd_files / "zero.npz")
+
+
+# --- item 19: the figure of an array estimate -----------------------------------------------
+
+
+def test_the_plot_shows_positions_and_samples(cli, arrays, tmp_path, monkeypatch):
+    import skf_ref.study.plots as plots
+
+    drawn = {}
+    original = plots.plot_estimate
+
+    def recorded(amplitude, times, *args, **kwargs):
+        drawn.update(amplitude=amplitude, times=times)
+        fig = original(amplitude, times, *args, **kwargs)
+        drawn["xlabel"] = fig.axes[0].get_xlabel()
+        return fig
+
+    monkeypatch.setattr(plots, "plot_estimate", recorded)
+    plot = tmp_path / "p.png"
+    arguments = _arrays(arrays, "--n-orient", "3", "--standardize", "position", "--out")
+    assert cli(*arguments, str(tmp_path / "o.npz"), "--plot", str(plot), "--quiet").returncode == 0
+    # the positions' amplitudes (10), not single columns of z (30); samples, not ms
+    assert drawn["amplitude"].shape == (10, 60) and drawn["times"] is None
+    assert drawn["xlabel"] == "sample" and plot.read_bytes()[:4] == b"\x89PNG"
+    assert int(np.argmax(drawn["amplitude"].max(axis=1))) == 4  # the true source's position
+
+
+# --- bad segments: no estimate on any smoother ----------------------------------------------
+
+
+@pytest.mark.parametrize("method", ["spectral", "dense", "filterpy"])
+@pytest.mark.parametrize("standardize", ["column", "position"])
+def test_smoothed_weights_leave_no_estimate_at_a_missing_step(method, standardize):
+    # the docs promise NaN inside bad segments; "rts-smoothed-weights" gave finite values
+    rng = np.random.default_rng(3)
+    L, Y = rng.standard_normal((6, 9)), rng.standard_normal((6, 30))
+    Y[:, 10:14] = np.nan
+    rec = reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, method=method,
+                      smoother="rts-smoothed-weights", standardize=standardize,
+                      n_orient=3 if standardize == "position" else None)  # fmt: skip
+    assert (
+        np.isnan(rec.z[:, 10:14]).all() and np.isfinite(np.delete(rec.z, range(10, 14), 1)).all()
+    )
+    assert np.isfinite(rec.x).all()  # the smoothed state interpolates the gap
+    blocks = np.concatenate([block for _, block in rec.blocks("z", rows=3)])
+    np.testing.assert_array_equal(np.isnan(blocks), np.isnan(rec.z))
+
+
+def test_a_bad_segment_has_no_estimate_on_any_smoother(mne_setup):
+    epochs = mne_setup["make_epochs"](target=300, seed=21, n_epochs=4)
+    operator = make_skf_operator(epochs.info, mne_setup["forward"], noise_std=5e-6,
+                                 verbose=False)  # fmt: skip
+    raw = mne.io.RawArray(np.concatenate(list(epochs.get_data()), axis=1), epochs.info,
+                          verbose=False)  # fmt: skip
+    raw.set_annotations(mne.Annotations([0.1], [0.02], ["BAD_blink"]))
+    for smoother in (None, "rts-state", "rts-smoothed-weights"):
+        stc = apply_skf_raw(raw, operator, smoother=smoother, verbose=False)
+        inside = np.zeros(240, bool)
+        inside[100:120] = True
+        assert np.isnan(stc.data[:, inside]).all(), smoother
+        assert np.isfinite(stc.data[:, ~inside]).all(), smoother
