@@ -522,6 +522,22 @@ QUOTES = (
         r"median ms\): erp (?P<erp>[\d.]+), pulse (?P<pulse>[\d.]+)\.",
     ),
     Quote(
+        "docs/performance.md",
+        "the AR(1) at 10 ms took {r} of the walk's wall time [{r1}, {r3}] and {c} of its CPU "
+        "time [{c1}, {c3}] (median [IQR] over {n} rounds), on a machine busy with other work "
+        "(load {load})",
+        "validation/bench/ar1.md",
+        read=lambda text: _ar1(text),
+    ),
+    Quote(
+        "docs/performance.md",
+        "took {tau} s wall ({cpu} s of CPU) at 60 channels x 8000 columns x 300 samples, "
+        "against {walk} s for the walk's two SNRs",
+        "validation/bench/tune_time_constant.md",
+        r"\| tune-time-constant \| (?P<tau>[\d.]+) \| (?P<cpu>[\d.]+) \|[\s\S]*"
+        r"\| tune-ep-snr \| (?P<walk>[\d.]+) \|",
+    ),
+    Quote(
         "README.md",
         "150 000 sources x 128 channels x 1000 steps, smoothed, in {big} s on 2 cores",
         "validation/bench/results.md",
@@ -566,6 +582,19 @@ def _timecourses(text):
         rs=median("erp", walk, "rts-standardized", 2),
         early=median("erp", ar20, "rts-standardized", 0),
     )  # fmt: skip
+
+
+def _ar1(text):
+    """validation/bench/ar1.md's ratios, their quartiles, rounds and load."""
+    ratios = re.search(
+        r"wall (?P<r>[\d.]+) \[(?P<r1>[\d.]+), (?P<r3>[\d.]+)\], CPU (?P<c>[\d.]+) "
+        r"\[(?P<c1>[\d.]+), (?P<c3>[\d.]+)\].*?; load (?P<load>[\d.]+)",
+        text,
+        flags=re.S,
+    )
+    rounds = re.search(r"(?P<n>\d+) alternated rounds", text)
+    assert ratios and rounds, "validation/bench/ar1.md no longer says its ratios"
+    return ratios.groupdict() | rounds.groupdict()
 
 
 def _collapsed(text):
