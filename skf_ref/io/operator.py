@@ -26,7 +26,6 @@ from .._utils.checks import (
     check_db,
     check_leadfield,
     check_real,
-    describe,
 )
 from .._utils.log import logger
 from .._utils.precision import zero_tolerance
@@ -41,7 +40,7 @@ from ..method import (
     reconstruct,
 )
 from ..method._model import missing_steps
-from ..method._search import TimeConstant, check_time_constant
+from ..method._search import TimeConstant, check_searched, check_time_constant
 from ..method._settings import check_gaps, check_settings
 from ..method._tuning import choose_priors
 from .channels import (
@@ -72,22 +71,7 @@ def check_prior(name: str, value: Any) -> Prior:
     >>> check_prior("pm_snr_db", "auto"), check_prior("ep_snr_db", 20)
     ('auto', 20.0)
     """
-    if isinstance(value, str) and value == "auto":
-        return value
-    if isinstance(value, str) or np.ndim(value) > 1 or np.size(value) not in (1, 2):
-        raise InputError(
-            f"{name} must be a number (dB), 'auto' or a search range (low, high) in dB, got "
-            f"{describe(value)}"
-        )
-    if np.ndim(value) == 0:
-        return check_db(name, value)
-    low, high = (check_db(f"{name}[{i}]", v) for i, v in enumerate(value))
-    if not low < high:
-        raise InputError(
-            f"{name} must be a range (low, high) with low < high, got ({low:g}, {high:g}); "
-            "give one number to fix it"
-        )
-    return (low, high)
+    return check_searched(name, value, "a number (dB)", "dB", check_db)
 
 
 def _describe_prior(value: Prior | None, unit: str = "dB") -> str:

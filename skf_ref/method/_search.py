@@ -99,16 +99,47 @@ def check_time_constant(value: Any, name: str = "time_constant_ms") -> TimeConst
     ...
     skf_ref._utils.checks.InputError: time_constant_ms must be > 0, got 0.0
     """
+    return check_searched(name, value, "a number of milliseconds", "ms", _milliseconds)
+
+
+def check_searched(
+    name: str, value: Any, number: str, unit: str, check_number: Any
+) -> float | str | tuple[float, float]:
+    """A prior the routes take: a number, ``"auto"``, or a search range ``(low, high)``.
+
+    The one check of both kinds (SNRs in dB, time constants in ms).
+
+    Parameters
+    ----------
+    name : str
+        The parameter, for the messages.
+    value : float or "auto" or (float, float)
+    number : str
+        What a number is, for the messages (``"a number (dB)"``).
+    unit : str
+        The range's unit, for the messages (``"dB"``).
+    check_number : callable
+        ``check_number(name, value) -> float``: one number, checked.
+
+    Returns
+    -------
+    float or "auto" or (float, float)
+
+    Examples
+    --------
+    >>> check_searched("ep_snr_db", (0, 20), "a number (dB)", "dB", check_db)
+    (0.0, 20.0)
+    """
     if isinstance(value, str) and value == "auto":
         return value
     if isinstance(value, str) or np.ndim(value) > 1 or np.size(value) not in (1, 2):
         raise InputError(
-            f"{name} must be a number of milliseconds, 'auto' or a search range (low, high) "
-            f"in ms, got {describe(value)}"
+            f"{name} must be {number}, 'auto' or a search range (low, high) in {unit}, got "
+            f"{describe(value)}"
         )
     if np.ndim(value) == 0:
-        return _milliseconds(name, value)
-    low, high = (_milliseconds(f"{name}[{i}]", v) for i, v in enumerate(value))
+        return float(check_number(name, value))
+    low, high = (float(check_number(f"{name}[{i}]", v)) for i, v in enumerate(value))
     if not low < high:
         raise InputError(
             f"{name} must be a range (low, high) with low < high, got ({low:g}, {high:g}); "
