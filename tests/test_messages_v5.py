@@ -3,6 +3,7 @@
 Items 13-19 of the issue, and the estimate inside bad segments, NaN on every smoother.
 """
 
+import json
 import os
 
 import mne
@@ -283,3 +284,66 @@ def test_a_bad_segment_has_no_estimate_on_any_smoother(mne_setup):
         inside[100:120] = True
         assert np.isnan(stc.data[:, inside]).all(), smoother
         assert np.isfinite(stc.data[:, ~inside]).all(), smoother
+
+
+# --- item 4: a recording on the command line goes the way apply_skf_raw takes it -----------
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory, mne_setup):
+    """A recording of 4 epochs end to end, a BAD_ annotation over samples 100-119."""
+    folder = tmp_path_factory.mktemp("recording")
+    epochs = mne_setup["make_epochs"](target=300, seed=21, n_epochs=4)
+    raw = mne.io.RawArray(np.concatenate(list(epochs.get_data()), axis=1), epochs.info,
+                          verbose=False)  # fmt: skip
+    raw.set_annotations(mne.Annotations([0.1], [0.02], ["BAD_blink"]))
+    raw.save(folder / "r-raw.fif", verbose=False)
+    raw.set_annotations(mne.Annotations([0.0], [raw.times[-1] + 0.001], ["BAD_all"]))
+    raw.save(folder / "all_bad-raw.fif", verbose=False)
+    mne.write_forward_solution(folder / "f-fwd.fif", mne_setup["forward"], verbose=False)
+    return folder
+
+
+def _recording(folder, name, *more):
+    return ["reconstruct", "--forward", str(folder / "f-fwd.fif"), "--evoked",
+            str(folder / name), *more]  # fmt: skip
+
+
+def test_a_recordings_bad_segments_are_skipped_on_the_command_line(cli, recording, tmp_path):
+    # the raw was made an evoked of raw.get_data(): the artefact filtered in, exit 0
+    out = tmp_path / "r-vl.stc"
+    result = cli(*_recording(recording, "r-raw.fif", "--noise-std", "5e-6", "--out", str(out)))
+    assert result.returncode == 0, result.stderr
+    assert "a continuous recording: 20 of 240 samples inside bad segments (BAD_ annotations)" \
+        ", skipped as missing observations: no estimate there (NaN)" in result.stderr  # fmt: skip
+    stc = mne.read_source_estimate(out)
+    assert np.isnan(stc.data[:, 100:120]).all()
+    assert np.isfinite(np.delete(stc.data, range(100, 120), axis=1)).all()
+    raw = mne.io.read_raw_fif(recording / "r-raw.fif", verbose=False)
+    operator = make_skf_operator(raw.info, mne.read_forward_solution(recording / "f-fwd.fif",
+                                 verbose=False), noise_std=5e-6, verbose=False)  # fmt: skip
+    expected = apply_skf_raw(raw.load_data(verbose=False), operator, verbose=False)
+    np.testing.assert_allclose(stc.data, expected.data, rtol=1e-5, equal_nan=True)  # .stc: float32
+    settings = json.loads(out.with_name(out.name + ".json").read_text())
+    assert settings["bad_samples"] == 20 and settings["nave"] == 1
+
+
+@pytest.mark.parametrize(
+    "name, more, message",
+    [
+        ("all_bad-raw.fif", ["--noise-std", "5e-6"],
+         "argument --evoked: {folder}/all_bad-raw.fif: every sample of the recording lies in a "
+         "bad segment (BAD_ annotations): nothing to reconstruct\n"),
+        ("r-raw.fif", ["--noise-std", "5e-6", "--smoother", "rts-standardized"],
+         "argument --evoked: {folder}/r-raw.fif: smoother='rts-standardized' is undefined over "
+         "missing steps (the data have 20)"),
+        ("r-raw.fif", ["--baseline"],
+         "argument --baseline: {folder}/r-raw.fif is a continuous recording, with no "
+         "pre-stimulus samples (t <= 0)"),
+    ],
+)  # fmt: skip
+def test_a_recording_that_cannot_be_used_is_refused(cli, recording, tmp_path, name, more, message):
+    result = cli(*_recording(recording, name, *more, "--out", str(tmp_path / "o.stc")))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert message.format(folder=recording) in result.stderr
+    assert not any(tmp_path.iterdir())

@@ -68,7 +68,8 @@ def add_parser(subparsers: Any) -> None:
     inputs.add_argument(
         "--evoked",
         type=Path,
-        help="MNE evoked (-ave.fif), epochs (-epo.fif: averaged) or a recording",
+        help="MNE evoked (-ave.fif), epochs (-epo.fif: averaged) or a recording (as "
+        "skf_ref.apply_skf_raw: its bad segments skipped, no estimate there)",
     )
     inputs.add_argument("--condition", help="the evoked's condition (name or index)")
     inputs.add_argument("--leadfield", type=Path, help="lead field: .npy, .npz, .mat, -fwd.fif")
@@ -326,6 +327,7 @@ def _settings(args, route, extra):
         "baseline": args.baseline,
         "nave": getattr(args, "nave", None),
         "priors_searched": getattr(args, "searched", None),
+        **({"bad_samples": args.bad_samples} if hasattr(args, "bad_samples") else {}),
         **extra,
         "machine": machine(),
     }
@@ -386,6 +388,12 @@ def _mne_route(args):
         raise InputError(f"argument --forward: {args.forward} is not an MNE -fwd.fif")
     evoked, types = recording.evoked, dict(meg=args.meg, eeg=args.eeg)
     args.nave = evoked.nave
+    if recording.raw is not None and args.baseline:
+        raise InputError(
+            f"argument --baseline: {args.evoked} is a continuous recording, with no "
+            "pre-stimulus samples (t <= 0) to estimate the noise from: give --noise-cov "
+            "(e.g. from the recording's rest) or --noise-std"
+        )
     if args.evoked.name.lower().endswith(_EPOCHS) and not args.quiet:
         print(
             f"--evoked {args.evoked}: epochs, averaged: {evoked.nave} epochs, so the noise "
@@ -415,9 +423,7 @@ def _mne_route(args):
             f"argument --n-orient: the forward has {operator.n_components} column(s) per "
             f"position, got {args.n_orient} (the MNE route takes it from the forward)"
         )
-    stc, rec = apply_skf(
-        evoked,
-        operator,
+    settings = dict(
         exponent=args.exponent,
         smoother=args.smoother,
         standardize=args.standardize,
@@ -426,6 +432,10 @@ def _mne_route(args):
         return_reconstruction=True,
         verbose=False,
     )
+    if recording.raw is None:
+        stc, rec = apply_skf(evoked, operator, **settings)
+    else:  # one route for a recording: its bad segments are missing observations
+        stc, rec = _recording(args, recording.raw, operator, settings)
     report_tuning(args, rec.tuning)
     if args.time_constant_ms is not None:
         args.sfreq = evoked.info["sfreq"]  # what the time constant was taken at
@@ -436,6 +446,34 @@ def _mne_route(args):
         print(f"{len(operator.ch_names)} channels used{left_out}", file=sys.stderr)
     positions = [s["rr"][s["vertno"]] for s in forward["src"]]
     return rec, stc, recording.times, positions
+
+
+def _recording(args, raw, operator, settings):
+    """A continuous recording through :func:`skf_ref.apply_skf_raw`, as the Python route
+    takes it: the samples inside its bad segments (``BAD_`` annotations) are missing
+    observations, with no estimate there (NaN); a recording all bad is refused."""
+    import numpy as np
+
+    from ..io.raw import apply_skf_raw
+
+    try:
+        stc, rec = apply_skf_raw(raw, operator, **settings)
+    except InputError as err:
+        text = str(err).replace("from start to stop", "of the recording")
+        text = text.replace("; give reject_by_annotation=False to use them", "")
+        text = text.replace(", or reject_by_annotation=False", "")
+        text = text.replace("smoother='rts-state'", "--smoother rts-state")
+        raise InputError(f"argument --evoked: {args.evoked}: {text}") from None
+    missing = np.isnan(stc.data.reshape(-1, stc.data.shape[-1])).all(axis=0)
+    args.bad_samples = int(np.count_nonzero(missing))
+    if not args.quiet:
+        print(
+            f"--evoked {args.evoked}: a continuous recording: {args.bad_samples} of "
+            f"{missing.size} samples inside bad segments (BAD_ annotations), skipped as "
+            "missing observations: no estimate there (NaN)",
+            file=sys.stderr,
+        )
+    return stc, rec
 
 
 def _array_route(args):

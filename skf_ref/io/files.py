@@ -27,7 +27,9 @@ format         read as
 ``-ave.fif``   data: ``mne.read_evokeds`` (``condition``: name or index)
 ``-epo.fif``   data: ``mne.read_epochs``, averaged
 other          data: anything ``mne.io.read_raw`` reads (EDF, BDF, BrainVision, EEGLAB,
-               FIF raw), as one evoked-like segment
+               FIF raw), as one evoked-like segment, and the recording itself
+               (``Recording.raw``, for :func:`skf_ref.apply_skf_raw`, which skips its
+               bad segments)
 =============  =========================================================================
 """
 
@@ -142,12 +144,17 @@ class Recording:
         Seconds.
     evoked : mne.Evoked or None
         The data as an MNE evoked, when the file is one of MNE's formats.
+    raw : mne.io.Raw or None
+        The continuous recording, when the file is one (not an evoked or epochs): its bad
+        segments (``BAD_`` annotations) are in it, not in ``data`` or ``evoked``; give it
+        to :func:`skf_ref.apply_skf_raw`, which skips them.
     """
 
     data: np.ndarray
     ch_names: list[str] | None = None
     times: np.ndarray | None = None
     evoked: Any = None
+    raw: Any = None
 
 
 def _pick(variables: Variables, key: str | None, conventional: Sequence[str], path: Path) -> Any:
@@ -304,29 +311,31 @@ def read_data(
         data, names, times = read_csv(path, sfreq=sfreq)
         return Recording(data, names, times)
     if any(name.endswith(suffix) for suffix in _MNE_DATA):
-        evoked = _mne_evoked(path, name, condition)
-        return Recording(evoked.data, list(evoked.ch_names), evoked.times.copy(), evoked)
+        evoked, raw = _mne_evoked(path, name, condition)
+        return Recording(evoked.data, list(evoked.ch_names), evoked.times.copy(), evoked, raw)
     raise InputError(
         f"{path}: unknown data format {path.suffix!r}; give .npy, .npz, .mat, .csv, an MNE "
         "-ave.fif or -epo.fif, or a recording MNE reads (EDF, BDF, BrainVision, EEGLAB)"
     )
 
 
-def _mne_evoked(path: Path, name: str, condition: str | int | None) -> Any:
+def _mne_evoked(path: Path, name: str, condition: str | int | None) -> tuple[Any, Any]:
+    """The file as an evoked, and the recording (None for an evoked or epochs file)."""
     mne = optional("mne", "mne", "reading an MNE evoked (-ave.fif)")
 
     if name.endswith(_EVOKED_FILES):
         with reading(path, "MNE evoked data"):
             evokeds = mne.read_evokeds(path, proj=False, verbose=False)
-        return _condition(evokeds, condition, path)
+        return _condition(evokeds, condition, path), None
     if name.endswith(("-epo.fif", "_epo.fif", "-epo.fif.gz")):
         with reading(path, "MNE epochs"):
-            return mne.read_epochs(path, proj=False, verbose=False).average()
+            return mne.read_epochs(path, proj=False, verbose=False).average(), None
     with reading(path, "a recording MNE reads"):
         raw = mne.io.read_raw(path, preload=True, verbose=False)
-    return mne.EvokedArray(
+    evoked = mne.EvokedArray(
         raw.get_data(), raw.info, tmin=raw.times[0], nave=1, comment=path.name, verbose=False
     )
+    return evoked, raw
 
 
 def _condition(evokeds: list, condition: str | int | None, path: Path) -> Any:

@@ -40,6 +40,7 @@ def apply_skf_raw(
     smoother: str | None = None,
     pick_ori: str | None = None,
     standardize: str | None = None,
+    method: str = "auto",
     out: str | os.PathLike[str] | None = None,
     overwrite: bool = False,
     memory_limit: float | None = None,
@@ -75,6 +76,8 @@ def apply_skf_raw(
     pick_ori : {None, "vector"}
         As :func:`apply_skf`.
     standardize : {"column", "position"}
+        As :func:`apply_skf`.
+    method : {"auto", "spectral", "dense", "filterpy"}
         As :func:`apply_skf`.
     out : path-like, optional
         A zarr store to create (e.g. ``"run1-skf.zarr"``): its array ``"data"`` holds what
@@ -150,6 +153,7 @@ def apply_skf_raw(
             data,
             exponent=exponent,
             smoother=smoother,
+            method=method,
             memory_limit=memory_limit,
             standardize=standardize,
             time_constant_ms=time_constant_ms,
