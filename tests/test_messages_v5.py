@@ -5,6 +5,7 @@ Items 13-19 of the issue, and the estimate inside bad segments, NaN on every smo
 
 import json
 import os
+import warnings
 
 import mne
 import numpy as np
@@ -347,3 +348,44 @@ def test_a_recording_that_cannot_be_used_is_refused(cli, recording, tmp_path, na
     assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
     assert message.format(folder=recording) in result.stderr
     assert not any(tmp_path.iterdir())
+
+
+# --- item 6: the whitener's rank, said and settable -----------------------------------------
+
+
+def _few_samples_covariance(info, n_samples, seed=0):
+    """A covariance of ``n_samples`` samples of noise, average referenced (nfree n - 1)."""
+    noise = np.random.default_rng(seed).standard_normal((len(info.ch_names), n_samples)) * 5e-6
+    noise -= noise.mean(axis=0)
+    return mne.Covariance(noise @ noise.T / n_samples, info.ch_names, [], [], n_samples - 1)
+
+
+def test_a_whitener_of_low_rank_is_told_and_rank_is_taken(mne_setup, caplog):
+    epochs = mne_setup["make_epochs"](target=300, seed=6, n_epochs=5)
+    evoked, forward = epochs.average(), mne_setup["forward"]
+    cov = _few_samples_covariance(evoked.info, 6)
+    with pytest.warns(UserWarning, match=r"the whitener has rank 6 for 64 channels \(63 "
+                      r"dimensions after the projectors\): 57 dimensions of every data set are "
+                      r"dropped; the noise covariance was estimated from too few samples \(its "
+                      r"nfree is 5, for 63 dimensions\): regularize it \(mne.cov.regularize, "
+                      r"or .*method='shrunk'\)\), or give rank=") as record:  # fmt: skip
+        apply_skf(evoked, forward, cov, verbose="INFO")
+    assert {w.filename for w in record} == {__file__}  # the user's line, through apply_skf
+    assert "Computing rank from the noise covariance with rank=None: whitener of rank 6, of " \
+        "the 63 dimensions the 64 channels carry" in caplog.text  # fmt: skip
+    # rank= reaches MNE's whitener through apply_skf, as make_skf_operator takes it
+    full = _few_samples_covariance(evoked.info, 500)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a covariance of 500 samples: nothing to warn of
+        apply_skf(evoked, forward, full, verbose=False)
+    ranked = apply_skf(evoked, forward, full, rank={"eeg": 40}, verbose=False)
+    assert not np.allclose(ranked.data, apply_skf(evoked, forward, full, verbose=False).data)
+    operator = make_skf_operator(evoked.info, forward, full, rank={"eeg": 40}, verbose=False)
+    assert operator.rank == 40
+    with pytest.raises(InputError, match=r"the operator fixes rank: give them to "
+                       r"make_skf_operator"):  # fmt: skip
+        apply_skf(evoked, operator, rank={"eeg": 40})
+    with pytest.raises(InputError, match=r"rank must be None \(estimated from the noise "
+                       r"covariance\), 'info', 'full' or a dict of positive ints by channel "
+                       r"type \(e.g. \{'eeg': 20\}\), got 'auto'"):  # fmt: skip
+        make_skf_operator(evoked.info, forward, full, rank="auto")

@@ -33,10 +33,10 @@ def _check_evoked(evoked: Any) -> None:
         raise InputTypeError(f"evoked must be an mne.Evoked, got {describe(evoked)}")
 
 
-def _operator(evoked, forward, noise_cov, noise_std, snrs, types, verbose):
+def _operator(evoked, forward, noise_cov, noise_std, snrs, types, verbose, rank=None):
     """The operator given, or one made from the evoked's info (the one-call route)."""
     mne = optional("mne", "mne", "apply_skf")
-    given = dict(noise_cov=noise_cov, noise_std=noise_std, **snrs, **types)
+    given = dict(noise_cov=noise_cov, noise_std=noise_std, **snrs, **types, rank=rank)
     if isinstance(forward, SKFOperator):
         fixed = [name for name, value in given.items() if value is not None]
         if fixed:
@@ -55,7 +55,14 @@ def _operator(evoked, forward, noise_cov, noise_std, snrs, types, verbose):
             noise_cov = baseline_covariance(evoked, **types)
     snrs = {name: value for name, value in snrs.items() if value is not None}  # or its defaults
     return make_skf_operator(
-        evoked.info, forward, noise_cov, noise_std=noise_std, **snrs, **types, verbose=verbose
+        evoked.info,
+        forward,
+        noise_cov,
+        noise_std=noise_std,
+        **snrs,
+        **types,
+        rank=rank,
+        verbose=verbose,
     )
 
 
@@ -75,6 +82,7 @@ def apply_skf(
     standardize: str | None = None,
     meg: bool | str | None = None,
     eeg: bool | None = None,
+    rank: Any = None,
     return_reconstruction: bool = False,
     verbose: bool | str | int | None = None,
 ) -> Any:
@@ -168,6 +176,10 @@ def apply_skf(
         Without an operator: the channel types (:func:`skf_ref.make_skf_operator`);
         default every MEG and EEG channel the evoked, the forward and the covariance
         share, as ``apply_inverse``.
+    rank : None or "info" or "full" or dict
+        Without an operator: the noise covariance's rank, as MNE takes it (None: estimated
+        from it; ``{"eeg": 20}``; :func:`skf_ref.make_skf_operator`). The rank used is
+        logged at INFO, and one below half the dimensions the channels carry is warned of.
     return_reconstruction : bool
         Also return the :class:`skf_ref.Reconstruction` (its arrays are in whitened units;
         see :meth:`skf_ref.SKFOperator.reconstruct`).
@@ -190,7 +202,7 @@ def apply_skf(
         if not override:
             snrs["time_constant_ms"] = time_constant_ms
         operator = _operator(
-            evoked, forward, noise_cov, noise_std, snrs, dict(meg=meg, eeg=eeg), verbose
+            evoked, forward, noise_cov, noise_std, snrs, dict(meg=meg, eeg=eeg), verbose, rank
         )
         operator.check_pick_ori(pick_ori)
         data = operator.select(evoked.info, evoked.data, "evoked")

@@ -36,18 +36,75 @@ depend on the data, done once (:func:`make_skf_operator`):
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
-from .._utils.checks import InputTypeError, describe
+import numpy as np
+
+from .._utils.checks import InputError, InputTypeError, describe
 from .._utils.extras import optional
-from .._utils.log import logger, verbosity
+from .._utils.log import caller_stacklevel, logger, verbosity
 from ..method._priors import DEFAULT_EP_SNR_DB
 from ..method._search import check_one_evolution_prior, check_time_constant
 from .channels import channel_types, has_average_reference_projector, pick_channels
 from .noise_cov import ad_hoc_covariance, check_noise_covariance, given_covariance
 from .operator import SKFOperator, check_prior
 
-__all__ = ["make_skf_operator"]
+__all__ = ["check_rank", "make_skf_operator"]
+
+_RANKS = (None, "info", "full")
+
+
+def check_rank(rank: Any) -> None:
+    """Refuse a ``rank`` MNE's whitener does not take: None, ``"info"``, ``"full"``, or a
+    dict of positive ints by channel type (``{"eeg": 20}``)."""
+    if isinstance(rank, dict):
+        for kind, value in rank.items():
+            if kind not in ("eeg", "meg", "mag", "grad") or isinstance(value, bool):
+                break
+            if not isinstance(value, int | np.integer) or value < 1:
+                break
+        else:
+            return
+    elif isinstance(rank, str | type(None)) and rank in _RANKS:
+        return
+    raise InputError(
+        "rank must be None (estimated from the noise covariance), 'info', 'full' or a dict "
+        f"of positive ints by channel type (e.g. {{'eeg': 20}}), got {rank!r}"
+    )
+
+
+def _about_rank(rank: int, asked: Any, info: Any, used: list[str], covariance: Any) -> None:
+    """Log the whitener's rank, as MNE's ``apply_inverse`` does, and warn when it drops
+    most of the dimensions the channels carry (their number minus the projectors)."""
+    carried = len(used) - sum(
+        1 for proj in info["projs"] if set(proj["data"]["col_names"]) & set(used)
+    )
+    logger.info(
+        "    Computing rank from the noise covariance with rank=%r: whitener of rank %d, of "
+        "the %d dimensions the %d channels carry",
+        asked,
+        rank,
+        carried,
+        len(used),
+    )
+    if rank * 2 >= carried:
+        return
+    nfree = int(covariance.get("nfree", 0) or 0)
+    cause = (
+        f"the noise covariance was estimated from too few samples (its nfree is {nfree}, "
+        f"for {carried} dimensions)"
+        if 0 < nfree < carried
+        else "the noise covariance is nearly singular"
+    )
+    warnings.warn(
+        f"the whitener has rank {rank} for {len(used)} channels ({carried} dimensions after "
+        f"the projectors): {carried - rank} dimensions of every data set are dropped; "
+        f"{cause}: regularize it (mne.cov.regularize, or mne.compute_covariance(..., "
+        "method='shrunk')), or give rank= (e.g. {'eeg': N}) when the rank estimated is wrong",
+        UserWarning,
+        stacklevel=caller_stacklevel(),
+    )
 
 
 def make_skf_operator(
@@ -112,7 +169,12 @@ def make_skf_operator(
         The noise covariance's rank, as MNE's ``make_inverse_operator`` takes it: None
         estimates it from the covariance; ``"info"`` reads it from the info, which is right
         for Maxwell-filtered (SSS) MEG, whose covariance has far fewer real dimensions than
-        channels.
+        channels; a dict gives it per channel type (``{"eeg": 20}``). The whitener keeps
+        that many dimensions of the data, and drops the rest: the rank used is logged at
+        INFO, and a rank below half the dimensions the channels carry (their number
+        minus the projectors) is warned of, with its likely cause (a covariance estimated
+        from fewer samples than channels: regularize it, ``mne.cov.regularize`` or
+        ``mne.compute_covariance(..., method="shrunk")``, or give ``rank=``).
     verbose : bool or str or int, optional
         The "skf_ref" log's level for this call: the channels used and left out are logged
         at INFO.
@@ -163,9 +225,11 @@ def make_skf_operator(
         if covariance is None:
             covariance = ad_hoc_covariance(noise_std, picked)
         check_noise_covariance(covariance, picked, used)
+        check_rank(rank)
         whitener = compute_whitener(
             covariance, picked, picks=used, rank=rank, pca=True, verbose=False
         )[0]
+        _about_rank(len(whitener), rank, picked, used, covariance)
         forward = mne.pick_channels_forward(forward, used, ordered=True, verbose=False)
         fixed = mne.forward.is_fixed_orient(forward)
         if not fixed:  # MNE's x, y, z per position, head coordinates
