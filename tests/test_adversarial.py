@@ -426,7 +426,8 @@ def test_ctrl_c_while_writing_ends_with_one_line_130_and_no_file(tmp_path):
     temporary = Path(line.split(" ", 1)[1])
     assert temporary.name.startswith(".o.skf-tmp-") and temporary.exists()
     status, _, err = ctrl_c(process)
-    assert (status, err) == (130, _INTERRUPTED)
+    said = "standardized column by column (--standardize column, the default on arrays)\n"
+    assert (status, err) == (130, said + _INTERRUPTED)  # what was said before, then one line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["L.npy", "Y.npy"]  # nothing half
 
 

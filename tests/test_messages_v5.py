@@ -389,3 +389,32 @@ def test_a_whitener_of_low_rank_is_told_and_rank_is_taken(mne_setup, caplog):
                        r"covariance\), 'info', 'full' or a dict of positive ints by channel "
                        r"type \(e.g. \{'eeg': 20\}\), got 'auto'"):  # fmt: skip
         make_skf_operator(evoked.info, forward, full, rank="auto")
+
+
+# --- item 20: how the array route standardized the columns, and what to pass --------------
+
+
+@pytest.mark.parametrize(
+    "more, said",
+    [
+        ([], "standardized column by column (--standardize column, the default on arrays); "
+         "its 30 columns could be 10 positions x 3 orientations: for a free-orientation lead "
+         "field (x, y, z per position) pass --standardize position --n-orient 3"),
+        (["--n-orient", "1"], "standardized column by column (--standardize column, the "
+         "default on arrays)\n"),
+        (["--standardize", "column"], "standardized column by column (--standardize column, "
+         "given)\n"),
+        (["--standardize", "position", "--n-orient", "3"], "standardized per source position: "
+         "3 columns of the lead field's 30 as a whole (--standardize position --n-orient 3)"),
+    ],
+)  # fmt: skip
+def test_the_array_route_says_how_it_standardized(cli, arrays, tmp_path, more, said):
+    out = tmp_path / "o.npz"
+    result = cli(*_arrays(arrays, *more, "--out", str(out)))
+    assert result.returncode == 0, result.stderr
+    assert said in result.stderr
+    settings = json.loads(out.with_name("o.npz.json").read_text())
+    assert settings["standardized"].startswith(said.rstrip("\n"))
+    assert settings["standardized"] + "\n" in result.stderr  # the line printed, recorded
+    quiet = cli(*_arrays(arrays, *more, "--out", str(tmp_path / "q.npz"), "--quiet"))
+    assert quiet.returncode == 0 and quiet.stderr == ""

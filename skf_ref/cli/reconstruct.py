@@ -189,6 +189,7 @@ def _route(args):
         args.ep_snr_db = DEFAULT_EP_SNR_DB  # the paper's random walk, at 0 dB
     _check_route_options(args, mne_route)
     _check_outputs(args)
+    args.standardize_given = args.standardize is not None
     if args.standardize is None and not mne_route:  # an array does not say which columns
         args.standardize = "column"  # form a position; the MNE route's operator decides
     return "mne" if mne_route else "arrays"
@@ -327,6 +328,7 @@ def _settings(args, route, extra):
         "baseline": args.baseline,
         "nave": getattr(args, "nave", None),
         "priors_searched": getattr(args, "searched", None),
+        **({"standardized": args.standardized} if hasattr(args, "standardized") else {}),
         **({"bad_samples": args.bad_samples} if hasattr(args, "bad_samples") else {}),
         **extra,
         "machine": machine(),
@@ -519,6 +521,7 @@ def _array_route(args):
     except InputError as err:
         raise _about_noise_cov(args, err) from err
     report_tuning(args, tuning)
+    n_orient = _n_orient(args, L, leadfield.positions)
     rec = reconstruct(
         L,
         Y,
@@ -530,10 +533,41 @@ def _array_route(args):
         smoother=None if args.smoother == "none" else args.smoother,
         method=args.method,
         standardize=args.standardize,
-        n_orient=_n_orient(args, L, leadfield.positions),
+        n_orient=n_orient,
     )
+    args.n_orient = n_orient  # as used: given, or from the lead field's positions
+    args.standardized = _standardized(args, L.shape[1], n_orient)
+    if not args.quiet:
+        print(args.standardized, file=sys.stderr)
     args.channels = {"used": recording.ch_names or L.shape[0]}
     return rec, None, recording.times, leadfield.positions
+
+
+def _standardized(args, n_columns, n_orient):
+    """How the array route standardized the columns, in words, and, when a free-orientation
+    lead field is likely and nothing said which columns form a position, what to pass."""
+    if args.standardize == "position":
+        return (
+            f"standardized per source position: {n_orient} columns of the lead field's "
+            f"{n_columns} as a whole (--standardize position --n-orient {n_orient})"
+        )
+    how = "given" if args.standardize_given else "the default on arrays"
+    said = f"standardized column by column (--standardize column, {how})"
+    if args.standardize_given or n_columns % 3 or n_orient == 1:
+        return said
+    if n_orient == 3:  # the positions say 3 columns each
+        return (
+            f"{said}; the lead field has 3 columns per position (from its positions): pass "
+            "--standardize position to standardize each position as a whole (sLORETA's, the "
+            "study's rule; docs/model.md section 2)"
+        )
+    return (
+        f"{said}; its {n_columns} columns could be {n_columns // 3} positions x 3 "
+        "orientations: for a free-orientation lead field (x, y, z per position) pass "
+        "--standardize position --n-orient 3 (the study's rule; column by column misplaces "
+        "sources of oblique orientation, docs/model.md section 2), or --n-orient 1 to say "
+        "each column is a position"
+    )
 
 
 def _array_sfreq(args, recording):
