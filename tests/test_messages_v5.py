@@ -418,3 +418,55 @@ def test_the_array_route_says_how_it_standardized(cli, arrays, tmp_path, more, s
     assert settings["standardized"] + "\n" in result.stderr  # the line printed, recorded
     quiet = cli(*_arrays(arrays, *more, "--out", str(tmp_path / "q.npz"), "--quiet"))
     assert quiet.returncode == 0 and quiet.stderr == ""
+
+
+# --- item 5: data and noise in different units, told by the whitened data's level ---------
+
+
+def _units_warnings(record):
+    return [str(w.message) for w in record if "whitened data's RMS" in str(w.message)]
+
+
+def test_data_and_noise_in_different_units_are_told(mne_setup):
+    evoked = mne_setup["make_epochs"](target=300, seed=6).average()  # in V, 5 uV per trial
+    forward = mne_setup["forward"]
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        apply_skf(evoked, forward, noise_std=5e-6, verbose=False)  # the same units
+    assert _units_warnings(record) == []
+    with pytest.warns(UserWarning, match=r"the whitened data's RMS \(median over "
+                      r"samples\) before the response \(t <= 0\) is [0-9.e+]+ \(\+120 dB\), "
+                      r"where noise whitened in the data's units is near 1: the data are larger "
+                      r"than the noise said by [0-9.e+]+, "
+                      r"likely different units \(data in uV with a noise covariance in V\^2, or "
+                      r"a noise_std in V for data in uV; MNE keeps EEG in V\)"
+                      ) as record:  # fmt: skip
+        apply_skf(evoked, forward, noise_std=5e-12, verbose=False)  # noise in "MV"
+    assert {w.filename for w in record} == {__file__}
+    with pytest.warns(UserWarning, match=r"\(-120 dB\), .* the data are smaller than the noise "
+                      r"said by .*data in V with a noise covariance in uV\^2"):  # fmt: skip
+        apply_skf(evoked, forward, noise_std=5.0, verbose=False)  # noise in uV
+    # "auto" priors on a bound: the units, not the range, and no advice to widen it
+    with pytest.warns(UserWarning) as record:
+        apply_skf(evoked, forward, noise_std=5e-12, pm_snr_db="auto", ep_snr_db="auto",
+                  verbose=False)  # fmt: skip
+    bounds = [str(w.message) for w in record if "lies on the" in str(w.message)]
+    assert bounds and all(
+        "the likely cause is the units, not the range (widening it will not help): the "
+        "whitened data's RMS (median over samples) before the response"
+        in text
+        and "widen pm" not in text
+        for text in bounds
+    )
+
+
+def test_array_data_and_noise_std_in_different_units_are_told(cli, arrays, tmp_path):
+    # the arrays' noise is 0.1: --noise-std 1e-7 is a million times off
+    result = cli(*_arrays(arrays, "--out", str(tmp_path / "o.npz"), "--quiet"))
+    assert result.returncode == 0 and _units_warnings(result.warnings) == []
+    arguments = _arrays(arrays, "--out", str(tmp_path / "u.npz"), "--quiet")
+    arguments[arguments.index("--noise-std") + 1] = "1e-7"
+    result = cli(*arguments)
+    (said,) = _units_warnings(result.warnings)
+    assert said.startswith("the whitened data's RMS (median over samples) over all samples")
+    assert "the data are larger than the noise said by" in said and result.returncode == 0

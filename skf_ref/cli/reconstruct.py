@@ -483,6 +483,7 @@ def _array_route(args):
     from ..io.files import read_data, read_leadfield, takes_option
     from ..method import reconstruct
     from ..method._tuning import choose_priors
+    from ..method._units import units_cause, units_mismatch, warn_units
 
     key = {
         path: args.key if takes_option(path, "key") else None
@@ -508,16 +509,21 @@ def _array_route(args):
     noise = _array_noise(args, recording, Y)
     if args.time_constant_ms is not None:
         args.sfreq = _array_sfreq(args, recording)
+    whitened = _whitened(Y, noise)
+    baseline = None if recording.times is None else recording.times <= 0
+    units = None if whitened is None else units_mismatch(whitened, baseline)
+    warn_units(units)
     try:
-        theta0, q, transition, tuning = choose_priors(
-            L,
-            Y,
-            **noise,
-            pm_snr_db=args.pm_snr_db,
-            ep_snr_db=args.ep_snr_db,
-            time_constant_ms=args.time_constant_ms,
-            sfreq=args.sfreq,
-        )
+        with units_cause(units):
+            theta0, q, transition, tuning = choose_priors(
+                L,
+                Y,
+                **noise,
+                pm_snr_db=args.pm_snr_db,
+                ep_snr_db=args.ep_snr_db,
+                time_constant_ms=args.time_constant_ms,
+                sfreq=args.sfreq,
+            )
     except InputError as err:
         raise _about_noise_cov(args, err) from err
     report_tuning(args, tuning)
@@ -568,6 +574,23 @@ def _standardized(args, n_columns, n_orient):
         "sources of oblique orientation, docs/model.md section 2), or --n-orient 1 to say "
         "each column is a position"
     )
+
+
+def _whitened(Y, noise):
+    """The data whitened with the noise given (over the covariance's range), for the
+    units check; NaN samples stay NaN; None for a covariance its checks will refuse."""
+    import numpy as np
+
+    if "noise_std" in noise:
+        return Y / noise["noise_std"]
+    cov = np.asarray(noise["noise_cov"], dtype=float)
+    if cov.shape != (len(Y), len(Y)) or not np.all(np.isfinite(cov)):
+        return None  # refused by the reconstruction's own checks, with its message
+    values, vectors = np.linalg.eigh(cov)
+    kept = values > max(values.max(), 0) * 1e-10
+    if not kept.any():
+        return None
+    return (vectors[:, kept] / np.sqrt(values[kept])).T @ Y
 
 
 def _array_sfreq(args, recording):

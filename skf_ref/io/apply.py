@@ -15,10 +15,13 @@ from __future__ import annotations
 from collections.abc import Iterator
 from typing import Any
 
+import numpy as np
+
 from .._utils.checks import InputError, InputTypeError, check_choice, check_instance, describe
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
 from ..method._search import check_time_constant
+from ..method._units import units_cause, units_mismatch, warn_units
 from .make_operator import make_skf_operator
 from .noise_cov import baseline_covariance
 from .operator import SKFOperator
@@ -211,16 +214,21 @@ def apply_skf(
             evoked.nave,
             evoked.nave,
         )
-        rec = operator.reconstruct(
-            data,
-            nave=evoked.nave,
-            exponent=exponent,
-            smoother=smoother,
-            method=method,
-            standardize=standardize,
-            time_constant_ms=time_constant_ms if override else None,
-            sfreq=evoked.info["sfreq"],
+        units = units_mismatch(  # the level before the response says the units
+            operator.whitener @ data * np.sqrt(evoked.nave), evoked.times <= 0
         )
+        warn_units(units)
+        with units_cause(units):
+            rec = operator.reconstruct(
+                data,
+                nave=evoked.nave,
+                exponent=exponent,
+                smoother=smoother,
+                method=method,
+                standardize=standardize,
+                time_constant_ms=time_constant_ms if override else None,
+                sfreq=evoked.info["sfreq"],
+            )
         stc = operator.to_stc(rec, evoked.times[0], 1.0 / evoked.info["sfreq"], pick_ori)
     return (stc, rec) if return_reconstruction else stc
 

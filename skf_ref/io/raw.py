@@ -25,6 +25,7 @@ from .._utils.checks import (
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
 from ..method._search import check_time_constant
+from ..method._units import units_cause, units_mismatch, warn_units
 from .operator import SKFOperator
 
 __all__ = ["apply_skf_raw"]
@@ -149,16 +150,19 @@ def apply_skf_raw(
         )
         annotated = _annotated(raw, needed, start, stop, reject_by_annotation)
         data = _select(operator, info, data, raw.times[start:stop], annotated)
-        rec = operator.reconstruct(
-            data,
-            exponent=exponent,
-            smoother=smoother,
-            method=method,
-            memory_limit=memory_limit,
-            standardize=standardize,
-            time_constant_ms=time_constant_ms,
-            sfreq=raw.info["sfreq"],
-        )
+        units = units_mismatch(operator.whitener @ data)  # NaN columns: left out
+        warn_units(units)
+        with units_cause(units):
+            rec = operator.reconstruct(
+                data,
+                exponent=exponent,
+                smoother=smoother,
+                method=method,
+                memory_limit=memory_limit,
+                standardize=standardize,
+                time_constant_ms=time_constant_ms,
+                sfreq=raw.info["sfreq"],
+            )
         tmin, tstep = float(raw.times[start]), 1.0 / raw.info["sfreq"]
         if out is None:
             result = operator.to_stc(rec, tmin, tstep, pick_ori)

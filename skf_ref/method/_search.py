@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from .._utils.checks import MAX_DB, InputError, check_db, check_real, describe
 from .._utils.log import caller_stacklevel
+from ._units import current_cause
 
 __all__ = [
     "AUTO_RANGE_DB",
@@ -272,9 +273,21 @@ def warn_at_bound(
                 (max(low - 20, -MAX_DB), high) if end == "lower" else (low, min(high + 20, MAX_DB))
             )
         bound = (low, high)[_ENDS.index(end)]
-        warnings.warn(
+        said = (
             f"tune: {name} = {value}{unit} lies on the {end} bound {bound:g}{unit} of its "
-            f"search range ({low:g}, {high:g}): {why}; widen {name} {further} {bound:g}{unit} "
+            f"search range ({low:g}, {high:g}): {why}"
+        )
+        units = current_cause()
+        if units is not None:  # the units, not the range: widening it would not help
+            warnings.warn(
+                f"{said}; the likely cause is the units, not the range (widening it will not "
+                f"help): {units}",
+                UserWarning,
+                stacklevel=caller_stacklevel(),
+            )
+            continue
+        warnings.warn(
+            f"{said}; widen {name} {further} {bound:g}{unit} "
             f"to let the data choose: {name}=({wider[0]:g}, {wider[1]:g}) in Python (tune, "
             f"apply_skf, make_skf_operator) or --{name.replace('_', '-')}="
             f"{wider[0]:g},{wider[1]:g} on the command line",
