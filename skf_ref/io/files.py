@@ -278,7 +278,7 @@ def read_data(
     condition : str or int, optional
         The evoked of an ``-ave.fif`` file that holds several: its comment or its index.
         Each of ``key``, ``condition`` and ``sfreq`` is refused for a file it does not
-        apply to (:func:`takes_option`): it is never left unused silently.
+        apply to (``takes_option``): it is never left unused silently.
     sfreq : float, optional
         ``.csv`` only: the sampling frequency (Hz). A first row that steps by ``1 / sfreq``
         is the times, any other first row is data (:mod:`skf_ref.io.tables`).

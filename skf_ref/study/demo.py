@@ -173,9 +173,6 @@ def run_demo(
     out : path-like or None
         Folder to write :data:`OUTPUTS` into (created; checked before any computation);
         None: nothing is written.
-    overwrite : bool
-        Replace files of ``out`` named like :data:`OUTPUTS`. False: such a file is refused
-        before any computation (and one that appears meanwhile is never replaced).
     snr_db : float
         Peak SNR of the data (dB).
     seed : int
@@ -202,6 +199,9 @@ def run_demo(
         Its standardization: each source position's three orientations as a whole (the
         default, the study's rule's) or each column on its own (the paper's, which the
         paper's setting keeps).
+    overwrite : bool
+        Replace files of ``out`` named like :data:`OUTPUTS`. False: such a file is refused
+        before any computation (and one that appears meanwhile is never replaced).
     verbose : bool or str or int or None
         Progress on the ``"skf_ref"`` logger, as MNE's ``verbose``.
 
