@@ -350,6 +350,30 @@ def test_a_recording_that_cannot_be_used_is_refused(cli, recording, tmp_path, na
     assert not any(tmp_path.iterdir())
 
 
+def test_a_recording_as_array_data_has_its_bad_segments_missing(cli, recording, tmp_path):
+    # the same class on the array route: --data RECORDING read raw.get_data(), the artefact
+    # inside the BAD_ annotation filtered in; its samples are missing observations there too
+    raw = mne.io.read_raw_fif(recording / "r-raw.fif", verbose=False)
+    forward = mne.read_forward_solution(recording / "f-fwd.fif", verbose=False)
+    np.save(tmp_path / "L.npy", forward["sol"]["data"])
+    out = tmp_path / "r.npz"
+    args = ["reconstruct", "--leadfield", str(tmp_path / "L.npy"), "--data"]
+    result = cli(*args, str(recording / "r-raw.fif"), "--noise-std", "5e-6", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert "20 of 240 samples inside bad segments (BAD_ annotations)" in result.stderr
+    z = np.load(out)["z"]
+    assert z.shape[1] == raw.n_times and np.isnan(z[:, 100:120]).all()
+    assert np.isfinite(np.delete(z, range(100, 120), axis=1)).all()
+    assert json.loads(out.with_name(out.name + ".json").read_text())["bad_samples"] == 20
+    result = cli(*args, str(recording / "all_bad-raw.fif"), "--noise-std", "5e-6", "--out",
+                 str(tmp_path / "o.npz"))  # fmt: skip
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert "all_bad-raw.fif is bad throughout (BAD_ annotations cover every sample)" in (
+        result.stderr
+    )
+    assert not (tmp_path / "o.npz").exists()
+
+
 # --- item 6: the whitener's rank, said and settable -----------------------------------------
 
 

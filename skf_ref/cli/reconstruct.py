@@ -492,6 +492,8 @@ def _array_route(args):
     leadfield = read_leadfield(args.leadfield, key=key[args.leadfield])
     recording = read_data(args.data, key=key[args.data], condition=args.condition)
     L, Y = leadfield.data, recording.data
+    if recording.raw is not None:  # a recording: its bad segments are missing observations,
+        Y = _recording_samples(args, recording.raw)  # as apply_skf_raw has them
     if leadfield.ch_names is not None and recording.ch_names is not None:
         missing = [name for name in recording.ch_names if name not in leadfield.ch_names]
         if missing:
@@ -547,6 +549,27 @@ def _array_route(args):
         print(args.standardized, file=sys.stderr)
     args.channels = {"used": recording.ch_names or L.shape[0]}
     return rec, None, recording.times, leadfield.positions
+
+
+def _recording_samples(args, raw):
+    """A recording's samples, NaN inside its BAD_ annotations (MNE's rejection by annotation)."""
+    import numpy as np
+
+    Y = raw.get_data(reject_by_annotation="NaN", verbose=False)
+    bad = np.isnan(Y).any(axis=0)
+    if bad.all():
+        raise InputError(
+            f"argument --data: {args.data} is bad throughout (BAD_ annotations cover every "
+            "sample): nothing to reconstruct"
+        )
+    if bad.any() and not args.quiet:
+        print(
+            f"{int(bad.sum())} of {bad.size} samples inside bad segments (BAD_ annotations): "
+            "missing observations, no estimate there",
+            file=sys.stderr,
+        )
+    args.bad_samples = int(bad.sum())
+    return Y
 
 
 def _standardized(args, n_columns, n_orient):
