@@ -84,10 +84,11 @@ def test_an_operator_with_a_time_constant_is_ar1_priors_on_the_whitened_forward(
     assert relative(rec.z, expected.z) <= ROUTE_RTOL
     # the one-call route makes the same operator
     once = apply_skf(evoked, forward, cov, time_constant_ms=15.0)
-    np.testing.assert_array_equal(once.data, stc.data)
+    assert relative(once.data, stc.data) <= ROUTE_RTOL  # one SVD each: rounding only
     # an operator of the random walk, the time constant given where it is applied
     walk = make_skf_operator(evoked.info, forward, cov)
-    np.testing.assert_array_equal(apply_skf(evoked, walk, time_constant_ms=15.0).data, stc.data)
+    given_here = apply_skf(evoked, walk, time_constant_ms=15.0).data
+    assert relative(given_here, stc.data) <= ROUTE_RTOL
 
 
 def test_the_default_is_still_the_random_walk_at_ep_snr_0_db(sample):
@@ -109,9 +110,10 @@ def test_epochs_take_the_time_constant_at_their_sampling_rate(sample):
     by_operator = apply_skf_epochs(epochs[:3], ar1, smoother="rts-state")
     by_call = apply_skf_epochs(epochs[:3], walk, smoother="rts-state", time_constant_ms=8.0)
     for k, (a, b) in enumerate(zip(by_operator, by_call, strict=True)):
-        np.testing.assert_array_equal(a.data, b.data)
+        assert relative(a.data, b.data) <= ROUTE_RTOL
         evoked = mne.EvokedArray(epochs.get_data()[k], epochs.info, tmin=epochs.times[0])
-        np.testing.assert_array_equal(a.data, apply_skf(evoked, ar1, smoother="rts-state").data)
+        alone = apply_skf(evoked, ar1, smoother="rts-state").data  # stacked vs alone
+        assert relative(a.data, alone) <= ROUTE_RTOL
     # twice the sampling rate: the same time constant is twice as many samples
     decimated = epochs.copy().decimate(2)
     _, rec = apply_skf(decimated.average(), ar1, return_reconstruction=True)
@@ -133,7 +135,7 @@ def test_raw_runs_the_ar1_prior_held_and_streamed(sample, tmp_path, smoother):
     # the same with the operator's random walk and the time constant given here
     walk = make_skf_operator(raw.info, forward, cov)
     again = apply_skf_raw(raw, walk, smoother=smoother, time_constant_ms=10.0)
-    np.testing.assert_array_equal(again.data, stc.data)
+    assert relative(again.data, stc.data) <= ROUTE_RTOL
 
 
 def test_a_raw_segment_filtered_does_not_depend_on_what_follows(sample):

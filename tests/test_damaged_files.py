@@ -169,6 +169,7 @@ def test_a_version_1_file_is_read_with_a_warning(sample, written):
                       r"cannot be detected; write the operator again"):  # fmt: skip
         read = read_skf_operator(written)
     evoked = epochs.average()
+    # the file holds the operator's arrays bit for bit: the same calls on them, by construction
     np.testing.assert_array_equal(apply_skf(evoked, read).data, apply_skf(evoked, operator).data)
     content["ch_names"] = content["ch_names"][::-1]
     _rewrite(written, content, digest=False)
@@ -246,6 +247,7 @@ def test_a_store_written_without_checksums_is_still_read(raw, tmp_path, monkeypa
     old = _store(raw, tmp_path, name="old-skf.zarr")
     monkeypatch.undo()
     new = _store(raw, tmp_path)
+    # the same computation written twice, only the chunks' codec differs: equal by construction
     np.testing.assert_array_equal(read_skf_stream(old).data, read_skf_stream(new).data)
     _shards(old)[0].unlink()
     with pytest.raises(InputError, match=r"old-skf.zarr: the file data/c/0/0 .* is missing"):
