@@ -180,6 +180,7 @@ PUBLIC_API = {
     "skf_ref.study.metrics": {
         "COLUMNS",
         "detected",
+        "earth_movers_distance",
         "echo",
         "peak_localization_error",
         "separation",

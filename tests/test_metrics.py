@@ -5,6 +5,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from skf_ref import InputError
 from skf_ref.method import amplitude_from_components
 from skf_ref.study import metrics, regions
 
@@ -117,3 +118,140 @@ def test_summarize_takes_a_reconstruction_object():
 def test_bad_shapes_are_refused(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+# Earth mover's distance (issue 46, item 2). The reference solves the transportation problem
+# by linprog with dense constraints, written here apart from the module's sparse one.
+emd = metrics.earth_movers_distance
+
+
+def lp_emd(amplitude, positions, points, weights):
+    """The exact transport cost (mm) from linprog on the dense transportation problem."""
+    from scipy.optimize import linprog
+
+    a = np.asarray(amplitude, float) / np.sum(amplitude)
+    w = np.asarray(weights, float) / np.sum(weights)
+    n, k = a.size, w.size
+    cost = np.linalg.norm(positions[:, None] - points[None], axis=2).ravel() * 1e3
+    A_eq = np.vstack([np.kron(np.eye(n), np.ones(k)), np.kron(np.ones(n), np.eye(k))])
+    result = linprog(cost, A_eq=A_eq, b_eq=np.concatenate([a, w]), method="highs")
+    assert result.status == 0
+    return result.fun
+
+
+@pytest.mark.parametrize("shift", [0, 1, 4, 19])
+def test_a_point_mass_moved_by_d_mm_costs_d(shift):
+    amplitude = np.zeros(20)
+    amplitude[shift] = 3.0
+    assert emd(amplitude, POSITIONS, POSITIONS[:1]) == pytest.approx(5 * shift, abs=1e-12)
+    off_grid = np.array([[0.0123, -0.004, 0.0071]])  # away from the line, in no grid plane
+    expected = np.linalg.norm(POSITIONS[shift] - off_grid) * 1e3
+    assert emd(amplitude, POSITIONS, off_grid) == pytest.approx(expected, rel=1e-14)
+
+
+def test_a_split_mass_against_one_point_is_the_mean_distance():
+    amplitude = np.zeros(20)
+    amplitude[[2, 6]] = 1.0  # half at 10 mm, half at 30 mm
+    assert emd(amplitude, POSITIONS, [[0.0, 0, 0]]) == pytest.approx(20)
+    assert emd(amplitude, POSITIONS, [POSITIONS[4]]) == pytest.approx(10)  # midway: 10 each
+    # and against the two points it sits on, in its own proportions, nothing moves
+    assert emd(amplitude, POSITIONS, POSITIONS[[2, 6]]) == 0
+    assert emd(amplitude, POSITIONS, POSITIONS[[2, 6]], [3, 1]) == pytest.approx(0.25 * 20)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_two_and_three_points_match_the_linear_program(seed):
+    rng = np.random.default_rng(seed)
+    positions = rng.normal(size=(60, 3)) * 0.03
+    amplitude = rng.random(60) * (rng.random(60) > 0.2)  # some positions without mass
+    for n_points in (2, 3):
+        points = rng.normal(size=(n_points, 3)) * 0.03
+        weights = rng.random(n_points)
+        expected = lp_emd(amplitude, positions, points, weights)
+        got = emd(amplitude, positions, points, weights)
+        assert got == pytest.approx(expected, rel=1e-9)
+
+
+def test_two_point_ties_match_the_linear_program():
+    # Regression for the closed form: the truth at x = +-10 mm, and the estimate in blocks of
+    # equal d1 - d2 (on the line beyond either point: -20 or +20 mm; on the bisecting plane
+    # x = 0: 0), with the truth's split falling inside each block in turn.
+    points = np.array([[-0.01, 0, 0], [0.01, 0, 0]])
+    left = np.column_stack([-0.01 - 0.004 * np.arange(1, 6), np.zeros(5), np.zeros(5)])
+    plane = np.column_stack([np.zeros(6), 0.005 * np.arange(6) - 0.01, 0.003 * np.arange(6)])
+    right = -left
+    positions = np.vstack([right, plane, left])  # the blocks out of order
+    amplitude = np.ones(16)
+    for first in (0.1, 5 / 16, 0.5, 11 / 16, 0.75, 0.9):  # 5/16, 11/16: block ends
+        weights = [first, 1 - first]
+        expected = lp_emd(amplitude, positions, points, weights)
+        assert emd(amplitude, positions, points, weights) == pytest.approx(expected, rel=1e-9)
+        order = np.random.default_rng(0).permutation(16)
+        assert emd(amplitude[order], positions[order], points, weights) == pytest.approx(
+            expected, rel=1e-9
+        )
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_swapping_a_two_point_estimate_and_a_two_point_truth(seed):
+    rng = np.random.default_rng(seed)
+    estimate, truth = rng.normal(size=(2, 3)) * 0.03, rng.normal(size=(2, 3)) * 0.03
+    a, w = rng.random(2), rng.random(2)
+    assert emd(a, estimate, truth, w) == pytest.approx(emd(w, truth, estimate, a), rel=1e-12)
+
+
+def test_scaling_amplitude_or_weights_changes_nothing():
+    rng = np.random.default_rng(1)
+    positions, amplitude = rng.normal(size=(50, 3)) * 0.03, rng.random(50)
+    for n_points in (1, 2, 3):
+        points, weights = rng.normal(size=(n_points, 3)) * 0.03, rng.random(n_points)
+        value = emd(amplitude, positions, points, weights)
+        for scale in (1e-300, 1e-12, 7.0, 1e300):  # neither underflows nor overflows
+            assert emd(amplitude * scale, positions, points, weights) == pytest.approx(
+                value, rel=1e-12
+            )
+            assert emd(amplitude, positions, points, weights * scale) == pytest.approx(
+                value, rel=1e-12
+            )
+
+
+def test_equal_weights_by_default_and_zero_weight_points_are_dropped():
+    rng = np.random.default_rng(2)
+    positions, amplitude = rng.normal(size=(40, 3)) * 0.03, rng.random(40)
+    points = rng.normal(size=(3, 3)) * 0.03
+    assert emd(amplitude, positions, points) == pytest.approx(
+        emd(amplitude, positions, points, [2.0, 2.0, 2.0]), rel=1e-12
+    )
+    assert emd(amplitude, positions, points, [1.0, 0.0, 3.0]) == pytest.approx(
+        emd(amplitude, positions, points[[0, 2]], [1.0, 3.0]), rel=1e-12
+    )
+    assert emd(amplitude, positions, points, [0.0, 0.0, 3.0]) == pytest.approx(
+        emd(amplitude, positions, points[2:]), rel=1e-12
+    )
+
+
+def test_an_empty_estimate_has_no_distance():
+    assert np.isnan(emd(np.zeros(20), POSITIONS, POSITIONS[:2]))
+
+
+@pytest.mark.parametrize(
+    "args, match",
+    [
+        ((np.ones(19), POSITIONS, POSITIONS[:1]), r"amplitude must have shape .*\(20,\)"),
+        ((np.ones((20, 1)), POSITIONS, POSITIONS[:1]), "amplitude must have shape"),
+        ((np.ones(20), POSITIONS[:, :2], POSITIONS[:1]), "positions must have shape"),
+        ((np.ones(20), POSITIONS, POSITIONS[0]), "points must have shape"),
+        ((np.ones(20), POSITIONS, np.zeros((0, 3))), "points must hold at least one"),
+        ((np.ones(20), POSITIONS, POSITIONS[:2], [1.0]), r"weights must have shape .*\(2,\)"),
+        ((-np.ones(20), POSITIONS, POSITIONS[:1]), "amplitude must be non-negative"),
+        ((np.full(20, np.nan), POSITIONS, POSITIONS[:1]), "amplitude contains NaN"),
+        ((np.ones(20), POSITIONS * np.nan, POSITIONS[:1]), "positions contains NaN"),
+        ((np.ones(20), POSITIONS, [[np.nan, 0, 0]]), "points contains NaN"),
+        ((np.ones(20), POSITIONS, POSITIONS[:2], [1.0, np.inf]), "weights contains NaN"),
+        ((np.ones(20), POSITIONS, POSITIONS[:2], [1.0, -1.0]), "weights must be non-negative"),
+        ((np.ones(20), POSITIONS, POSITIONS[:2], [0.0, 0.0]), "not all zero"),
+    ],
+)
+def test_earth_movers_distance_refuses_bad_inputs(args, match):
+    with pytest.raises(InputError, match=match):
+        emd(*args)
