@@ -1,8 +1,0 @@
-"""``python -m validation.reproduce``: see :mod:`validation.reproduce`."""
-
-import sys
-
-from .cli import main
-
-if __name__ == "__main__":
-    sys.exit(main())
