@@ -124,14 +124,6 @@ def test_metrics_table_is_the_code_s():
     assert rows == [tuple(column) for column in (*metrics.COLUMNS, *DETECTION_COLUMNS)]
 
 
-def test_the_report_s_rule_renders_as_one_paragraph():
-    # choosing.md includes the report's section with the rule; wrapped, a line of it started
-    # with ">=" and Markdown made the rest of the paragraph a quote
-    from validation.reproduce.recommend import RULE_TEXT
-
-    assert "\n" not in RULE_TEXT and not re.match(r"(>|#|[-+*] |\d+[.)] )", RULE_TEXT)
-
-
 def test_gallery_has_its_examples():
     examples = sorted((DOCS / "examples").glob("plot_*.py"))
     assert len(examples) >= MIN_GALLERY

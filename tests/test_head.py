@@ -1,6 +1,6 @@
 """Head models: the BEM route against MNE's analytic sphere, the sphere's cortex + thalamus,
 the anatomy, the testing-data lookup and the cache folder. No test reads MNE's testing dataset:
-the realistic head is validation (``python -m validation.reproduce --mne-testing-data DIR``)."""
+the realistic head is validation's (the study, ``python -m validation.reproduce``)."""
 
 import os
 

@@ -103,5 +103,6 @@ print(table.groupby("priors", sort=False)[columns].median().round(2).to_string()
 # above). They are not chosen for localization: across the whole P20/N20 study they fall
 # short of the best fixed priors found with the ground truth in most settings, while their
 # time courses correlate with the truth as well or better (the reproduction report,
-# ``validation/report/REPORT.md``, "Priors chosen by the data"). And read the bound
-# warning: a choice on the edge of the range is the range's, not the data's.
+# archived in ``validation/archive/report-v2/REPORT.md``, "Priors chosen by the data").
+# And read the bound warning: a choice on the edge of the range is the range's, not the
+# data's.

@@ -104,7 +104,7 @@ def apply_skf(
     orientation gives the signed estimate.
 
     Which setting. The defaults are the setting the study's pre-registered rule chose
-    (validation/report/REPORT.md): exponent 0.5 without smoothing
+    (validation/archive/report-v2/REPORT.md): exponent 0.5 without smoothing
     (:data:`skf_ref.RECOMMENDED_SETTING`), each source position standardized as a whole
     (``standardize="position"``, ``n_orient`` from the forward: for a fixed-orientation
     forward it equals the per-column form; with EEG: for MEG alone, whose blocks are

@@ -148,7 +148,7 @@ def make_skf_operator(
         exactly one of the two.
     pm_snr_db, ep_snr_db : float or "auto" or (float, float)
         The priors' SNRs in dB (docs/model.md §4, on the whitened lead field), default 0
-        and 0 dB (the study's rule, validation/report/REPORT.md). ``"auto"``
+        and 0 dB (the study's rule, validation/archive/report-v2/REPORT.md). ``"auto"``
         or a range ``(low, high)`` in dB: chosen from each data set the operator is
         applied to by the marginal likelihood (:func:`skf_ref.tune`; ``"auto"`` searches
         -20 to 40 dB). ``ep_snr_db`` None (not given): 0 dB for the paper's random walk.

@@ -208,9 +208,9 @@ class SKFOperator:
 
         ``"position"`` (each position's orientations as a whole) when the operator uses EEG
         channels: the setting the pre-registered study chose, on EEG
-        (validation/report/REPORT.md). ``"column"`` for MEG alone: MEG barely sees, and in
-        a spherical head does not see, a position's radial orientation, so its 3 x 3 blocks
-        are singular or nearly so; the study did not measure MEG.
+        (validation/archive/report-v2/REPORT.md). ``"column"`` for MEG alone: MEG barely
+        sees, and in a spherical head does not see, a position's radial orientation, so its
+        3 x 3 blocks are singular or nearly so; the study did not measure MEG.
         """
         return "position" if self.eeg_names else "column"
 

@@ -47,7 +47,8 @@ __all__ = [
 
 CONVENTIONS = ("gain", "toolbox")
 #: The random walk's EP-SNR (dB) where neither an EP-SNR nor a time constant is given: the
-#: study's rule (validation/report/REPORT.md), on every route that makes an operator.
+#: study's rule (validation/archive/report-v2/REPORT.md), on every route that makes an
+#: operator.
 DEFAULT_EP_SNR_DB = 0.0
 
 

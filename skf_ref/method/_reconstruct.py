@@ -113,9 +113,10 @@ def reconstruct(
     carry, float32 included); other mismatches cannot be seen in the arrays, and give a
     wrong estimate without an error (docs/model.md §1).
 
-    Which setting to use. The study's pre-registered rule (validation/report/REPORT.md)
-    chose exponent 0.5 without smoothing (the defaults, :data:`skf_ref.RECOMMENDED_SETTING`),
-    each source position standardized as a whole, and priors PM-SNR 0 dB, EP-SNR 0 dB. An
+    Which setting to use. The study's pre-registered rule
+    (validation/archive/report-v2/REPORT.md) chose exponent 0.5 without smoothing (the
+    defaults, :data:`skf_ref.RECOMMENDED_SETTING`), each source position standardized as a
+    whole, and priors PM-SNR 0 dB, EP-SNR 0 dB. An
     array does not say which columns form a position, so ``standardize`` defaults to
     ``"column"`` here: for a free-orientation lead field (three columns per position, MNE's
     order) pass ``standardize="position", n_orient=3`` to run the rule's setting (the MNE

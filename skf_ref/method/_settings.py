@@ -29,10 +29,10 @@ __all__ = [
 ]
 
 #: The exponent and smoother the package recommends and defaults to: exponent 0.5 without
-#: smoothing. Chosen by a rule committed before the numbers it read (validation/report/
-#: REPORT.md, "The default, by a rule committed first"): of 64 settings (exponent x smoother
-#: x standardization x priors), the one meeting the three success criteria with the lowest
-#: localization error, "SKF 0.5, no smoother, position, EP 0 / PM 0". Its other two parts
+#: smoothing. Chosen by a rule committed before the numbers it read (validation/archive/
+#: report-v2/REPORT.md, "The default, by a rule committed first"): of 64 settings (exponent x
+#: smoother x standardization x priors), the one meeting the three success criteria with the
+#: lowest localization error, "SKF 0.5, no smoother, position, EP 0 / PM 0". Its other two parts
 #: are not in this mapping, which ``reconstruct(L, Y, ..., **RECOMMENDED_SETTING)`` takes
 #: on bare arrays: the standardization ``standardize="position"`` (each source position's
 #: block; needs ``n_orient``, which an array does not carry, so :func:`skf_ref.reconstruct`

@@ -59,7 +59,11 @@ def run(root, quick, jobs, out, work):
     designs = [d for d in DESIGNS if d in choice.index.get_level_values(0)]
     met = bool(table.iloc[0]["designs_met"] == len(designs))
     taus = rows[rows["method"] == named(default)["N4" if not default.by_data else "N1"].label]
-    tau = float(taus["tau_ms"].median()) if "tau_ms" in taus and taus["tau_ms"].notna().any() else 30.0
+    tau = (
+        float(taus["tau_ms"].median())
+        if "tau_ms" in taus and taus["tau_ms"].notna().any()
+        else 30.0
+    )
     phase_b(work, root, quick, jobs, default, tau)
     every = read_cells(work)
     every = every[~every.duplicated(["set", "condition", "design", "kind", "run", "method"])]
@@ -67,13 +71,14 @@ def run(root, quick, jobs, out, work):
     every = rule.with_detection(every, limits)
     scored_rows = every[every["set"] == "scored"]
     scored = rule.summarize(scored_rows, by=("design", "method"))
+    tasks = every.drop_duplicates(["set", "condition", "design", "cpu_s"])["cpu_s"]
+    blas = [(i.get("internal_api"), i.get("num_threads"), i.get("architecture"))
+            for i in threadpool_info()]  # fmt: skip
     meta = dict(
         minutes=f"{(time.time() - start) / 60:.0f}", wall_s=round(time.time() - start),
-        cpu_s_main=round(time.process_time() - cpu),
-        cpu_s_tasks=round(float(every.groupby(["set", "condition", "design"])["cpu_s"].first().sum())),
+        cpu_s_main=round(time.process_time() - cpu), cpu_s_tasks=round(float(tasks.sum())),
         jobs=jobs, load=os.getloadavg(), machine=platform.processor() or platform.machine(),
-        blas=[(i.get("internal_api"), i.get("num_threads"), i.get("architecture")) for i in threadpool_info()],
-        quick=quick, window_tau_ms=tau,
+        blas=blas, quick=quick, window_tau_ms=tau,
     )  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
     table.to_csv(out / "rule.csv", index=False, float_format="%.4g")
@@ -82,7 +87,7 @@ def run(root, quick, jobs, out, work):
     with atomic_path(out / "rows.csv.gz") as tmp:
         every.to_csv(tmp, index=False, float_format="%.5g", compression="gzip")
     write.report(out / "REPORT.md", rows, scored_rows, choice, scored, default, table, meta)
-    write.headline(out / "headline.json", scored, default, met, meta)
+    write.headline(out / "headline.json", scored_rows, scored, default, met, meta)
     with atomic_path(out / "default.json") as tmp:
         Path(tmp).write_text(json.dumps(dict(
             exponent=default.exponent, dynamics=default.dynamics,

@@ -8,7 +8,7 @@ never downloaded):
   scalp; 1280 triangles each) with the conductivities stored there, 0.3, 0.006 and 0.3 S/m.
   OpenMEEG's solver was checked and not adopted: its lead field differs by 9 % (median
   column), which left the reproduction's verdicts as they are but for one marginal criterion
-  (``validation/report/REPORT.md``).
+  (``validation/archive/report-v2/REPORT.md``).
 - **Sources**: ``"anatomical"``, MNE's volume source space restricted to the cortex and
   thalamus labels of the subject's ``aseg.mgz`` (:data:`LABELS`) on a 5 mm grid, 5 mm inside
   the inner skull (:func:`mne.setup_volume_source_space`); or ``"volume"``, a grid filling the
