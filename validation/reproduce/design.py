@@ -83,8 +83,9 @@ class Design:
         return erp
 
     def peak(self, wave):
-        """The first sample where ``|wave|`` is largest."""
-        return int(np.argmax(np.abs(wave)))
+        """The first sample where ``|wave|`` is largest (to rounding: 10 Hz has many peaks)."""
+        a = np.abs(wave)
+        return int(np.flatnonzero(a >= a.max() * (1 - 1e-9))[0])
 
 
 DESIGNS = {
@@ -157,12 +158,14 @@ class Setting:
         return "ar", "auto" if value == "auto" else float(value.split()[0])
 
 
-CANDIDATES = tuple(
-    Setting(d, s, m) for d, s, m in product(DYNAMICS, STANDARDIZATIONS, SMOOTHERS)
-)
+CANDIDATES = tuple(Setting(d, s, m) for d, s, m in product(DYNAMICS, STANDARDIZATIONS, SMOOTHERS))
 PAPER = Setting("walk EP 20", "column", "rts-standardized", 1.25)
 PREVIOUS = Setting("walk EP 0", "position", "none")
-QUICK_CANDIDATES = (PREVIOUS, Setting("AR 30 ms", "position", "none"), Setting("AR auto", "column", "none"))
+QUICK_CANDIDATES = (
+    PREVIOUS,
+    Setting("AR 30 ms", "position", "none"),
+    Setting("AR auto", "column", "none"),
+)
 
 
 def by_data_twin(setting):

@@ -52,14 +52,14 @@ def _emd(a, geometry, points, weights):
     return float(earth_movers_distance(a, geometry.positions, points, weights))
 
 
-def _course(A, distance, wave, dt_ms):
+def _course(A, distance, wave, dt_ms, peak):
     region = distance <= REGION_MM
     course = A[region].max(axis=0)
     if np.ptp(course) == 0 or np.ptp(np.abs(wave)) == 0:
         r = np.nan
     else:
         r = float(np.corrcoef(course, np.abs(wave))[0, 1])
-    latency = abs(int(np.argmax(course)) - int(np.argmax(np.abs(wave)))) * dt_ms
+    latency = abs(int(np.argmax(course)) - peak) * dt_ms
     return r, float(latency)
 
 
@@ -69,7 +69,7 @@ def pair(A, geometry, design, deep, cortical, moments):
     t_deep, t_cort = design.peak(waves["deep"]), design.peak(waves["cortical"])
     d_deep, d_cort = geometry.distance_mm(deep), geometry.distance_mm(cortical)
     weights = np.abs([moments[0] * waves["deep"][t_deep], moments[1] * waves["cortical"][t_deep]])
-    r, latency = _course(A, d_deep, waves["deep"], 1e3 / design.sfreq)
+    r, latency = _course(A, d_deep, waves["deep"], 1e3 / design.sfreq, t_deep)
     return {
         "deep error": _error(A[:, t_deep], d_deep),
         "superficial error": _error(A[:, t_cort], d_cort),

@@ -43,7 +43,9 @@ class SKF:
                 a = 1.0
             else:
                 theta0, q, a = ar1_priors(self.Lw, 1.0, PM_SNR_DB, value, self.design.sfreq)
-            model = StateSpaceModel.create(self.Lw, noise_std=1.0, theta0=theta0, q=q, transition=a)
+            model = StateSpaceModel.create(
+                self.Lw, noise_std=1.0, theta0=theta0, q=q, transition=a
+            )
             if len(self._models) > 8:
                 self._models.clear()
             self._models[key] = SpectralModel(model, n_times, basis=self.basis)
@@ -79,14 +81,18 @@ class SKF:
     def apply(model, Yw, setting):
         """A setting's amplitudes from a prepared model."""
         smoother = None if setting.smoother == "none" else setting.smoother
-        kwargs = {} if setting.standardize == "column" else dict(standardize="position", n_orient=3)
+        kwargs = (
+            {} if setting.standardize == "column" else dict(standardize="position", n_orient=3)
+        )
         return model.apply(Yw, setting.exponent, smoother, **kwargs).amplitude(3)
 
     def memoryless_kernel(self, setting):
         """Each step alone (T = 1 priors): the linear map of one whitened sample, (3N, rank)."""
         model = self.model("walk", 0.0, n_times=1)
         smoother = None
-        kwargs = {} if setting.standardize == "column" else dict(standardize="position", n_orient=3)
+        kwargs = (
+            {} if setting.standardize == "column" else dict(standardize="position", n_orient=3)
+        )
         r = self.Lw.shape[0]
         return np.column_stack(
             [

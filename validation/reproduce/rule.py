@@ -41,8 +41,13 @@ def summarize(rows, by=("set", "design", "method")):
     runs = rows[~rows["kind"].isin(["noise null", "cortical null"])]
     metrics = [c for c in (*LOWER, "r", "detection") if c in runs]
     return runs.groupby(list(by))[metrics].agg(
-        lambda v: np.nan if v.notna().sum() == 0 else float(np.nanmedian(v))
-        if v.name != "detection" else float(np.nanmean(v))
+        lambda v: (
+            np.nan
+            if v.notna().sum() == 0
+            else float(np.nanmedian(v))
+            if v.name != "detection"
+            else float(np.nanmean(v))
+        )
     )
 
 

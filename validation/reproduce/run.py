@@ -21,9 +21,23 @@ from skf_ref._utils.atomic_files import atomic_path
 from . import measure, methods
 from .conditions import condition
 from .design import (
-    CANDIDATES, CONDITIONS, CORTICAL_PER_HEMISPHERE, COSTLY_CELLS, DESIGN_CONDITIONS, DESIGNS,
-    IRMXNE_RUNS, LAMBDA2, MINIMUM_NORM, PAPER, QUICK_CANDIDATES, QUICK_SIZES, SEEDS, SETS, SIZES,
-    Setting, named,
+    CANDIDATES,
+    CONDITIONS,
+    CORTICAL_PER_HEMISPHERE,
+    COSTLY_CELLS,
+    DESIGN_CONDITIONS,
+    DESIGNS,
+    IRMXNE_RUNS,
+    LAMBDA2,
+    MINIMUM_NORM,
+    PAPER,
+    QUICK_CANDIDATES,
+    QUICK_SIZES,
+    SEEDS,
+    SETS,
+    SIZES,
+    Setting,
+    named,
 )  # fmt: skip
 
 MEMORYLESS = "memoryless SKF ({})"
@@ -161,8 +175,15 @@ def task(work, root, quick, set_name, cond_name, design, skf_settings, extras):
                   for std in extras["memoryless"]}  # fmt: skip
     window = None
     if extras.get("window") is not None:
-        window = _window(work, cond, skf, sources, extras["window"],
-                         extras.get("window_tag", extras["tag"]), design)
+        window = _window(
+            work,
+            cond,
+            skf,
+            sources,
+            extras["window"],
+            extras.get("window_tag", extras["tag"]),
+            design,
+        )
     rows = []
     for kind, i, Y, truth in runs(cond, design, sources, set_name, n, moment):
         if extras.get("nulls only") and kind not in ("cortical null", "noise null"):

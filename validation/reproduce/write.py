@@ -8,6 +8,7 @@ the README quotes.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -55,7 +56,9 @@ def _markdown(frame):
 
     head = "| " + " | ".join(map(str, frame.columns)) + " |"
     rule = "|---" * len(frame.columns) + "|"
-    body = ["| " + " | ".join(cell(v) for v in row) + " |" for row in frame.itertuples(index=False)]
+    body = [
+        "| " + " | ".join(cell(v) for v in row) + " |" for row in frame.itertuples(index=False)
+    ]
     return "\n".join([head, rule, *body])
 
 
@@ -84,7 +87,11 @@ def report(path, rows_choice, rows_scored, choice, scored, default, rule_table, 
     names = named(default)
     labels = {s.label: f"{k}: {s.label}" for k, s in names.items()}
     skf = [s.label for s in names.values()]
-    controls = [m for m in scored.index.get_level_values(1).unique() if m.startswith(("memoryless", "sLORETA, lambda2 matched, on"))]
+    controls = [
+        m
+        for m in scored.index.get_level_values(1).unique()
+        if m.startswith(("memoryless", "sLORETA, lambda2 matched, on"))
+    ]
     lines = [
         "# What the SKF is worth, v3: report",
         "",
@@ -107,8 +114,8 @@ def report(path, rows_choice, rows_scored, choice, scored, default, rule_table, 
         if d not in choice.index.get_level_values(0):
             continue
         ref = reference(choice, d)
-        lines += [f"Reference in {d} (choice): " + ", ".join(
-            f"{k} {_fmt(k, v)}" for k, v in ref.items() if k in COLUMNS[DESIGNS[d].kind]), ""]  # fmt: skip
+        shown = [f"{k} {_fmt(k, v)}" for k, v in ref.items() if k in COLUMNS[DESIGNS[d].kind]]
+        lines += [f"Reference in {d} (choice): " + ", ".join(shown), ""]
     lines += ["## Scored set, every design", ""]
     for d in DESIGNS:
         if d not in scored.index.get_level_values(0):
@@ -132,34 +139,74 @@ def report(path, rows_choice, rows_scored, choice, scored, default, rule_table, 
                   "| design | median ms [IQR] | at a bound |", "|---|---|---|"]  # fmt: skip
         for d, sub in taus.groupby("design"):
             one = sub.drop_duplicates(["condition", "kind", "run"])
-            lines.append(f"| {d} | {_iqr(one['tau_ms'])} | {int(one['at_bound'].sum())} of {len(one)} |")
+            lines.append(
+                f"| {d} | {_iqr(one['tau_ms'])} | {int(one['at_bound'].sum())} of {len(one)} |"
+            )
         lines.append("")
     lines += ["## Run", "", "```", json.dumps(meta, indent=1), "```", ""]
     with atomic_path(path) as tmp:
         Path(tmp).write_text("\n".join(lines))
 
 
-def headline(path, scored, default, met_choice, meta):
-    """Write ``headline.json``: the default, and per design the numbers the README quotes."""
-    names = named(default)
-    out = dict(default=default.label, met_all_on_choice=met_choice, minutes=meta["minutes"],
-               designs={})  # fmt: skip
-    for d in DESIGNS:
+HEADLINE_METHODS = (
+    "eLORETA, lambda2 1/9", "eLORETA, lambda2 matched", "sLORETA, lambda2 matched",
+    "dSPM, lambda2 matched", "MNE, lambda2 matched", "LCMV",
+)  # fmt: skip
+#: The summary's columns: the headline error of each design, detection where there is one.
+KEY = {"pair": "deep error", "two": "left error", "lone": "lone thalamic error"}
+
+
+def _summary_table(scored, names):
+    """Designs x (N1, N3, best matched minimum norm, eLORETA 1/9): the headline error."""
+    head = [
+        "design",
+        "error measured",
+        "N1 (the default)",
+        "N3 (0.4 default)",
+        "best matched minimum norm",
+        "eLORETA 1/9",
+        "N1 detection",
+        "best detection",
+    ]
+    out = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    for d, spec in DESIGNS.items():
         if d not in scored.index.get_level_values(0):
             continue
-        ref = reference(scored, d)
-        entry = {}
-        for key, method in (("N1", names["N1"].label), ("N3", names["N3"].label),
-                            ("eLORETA 1/9", "eLORETA, lambda2 1/9"),
-                            ("eLORETA matched", "eLORETA, lambda2 matched"),
-                            ("sLORETA matched", "sLORETA, lambda2 matched")):  # fmt: skip
-            if (d, method) in scored.index:
-                row = scored.loc[(d, method)]
-                entry[key] = {c: _fmt(c, row.get(c, np.nan)) for c in COLUMNS[DESIGNS[d].kind]}
-        entry["best matched minimum norm"] = {
-            c: _fmt(c, ref.get(c, np.nan)) for c in COLUMNS[DESIGNS[d].kind]
-        }
-        out["designs"][d] = entry
+        key, ref = KEY[spec.kind], reference(scored, d)
+
+        def get(method, metric, d=d):
+            if (d, method) not in scored.index:
+                return "-"
+            return _fmt(metric, scored.loc[(d, method)].get(metric, np.nan))
+
+        row = [
+            d,
+            key,
+            get(names["N1"].label, key),
+            get(names["N3"].label, key),
+            _fmt(key, ref.get(key, np.nan)),
+            get("eLORETA, lambda2 1/9", key),
+            get(names["N1"].label, "detection") if spec.kind == "pair" else "-",
+            _fmt("detection", ref.get("detection")) if spec.kind == "pair" else "-",
+        ]
+        out.append("| " + " | ".join(row) + " |")
+    return "\n".join(out)
+
+
+def headline(path, rows_scored, scored, default, met_choice, meta):
+    """Write ``headline.json``: the default, the tables the pages print, every number quoted."""
+    names = named(default)
+    labels = {s.label: f"{k}: {s.label}" for k, s in names.items()}
+    tables = {"summary": _summary_table(scored, names)}
+    for d in DESIGNS:
+        if d in scored.index.get_level_values(0):
+            methods = [names["N1"].label, names["N3"].label, names["N2"].label, *HEADLINE_METHODS]
+            tables[d] = table(rows_scored, scored, d, methods, labels)
+    numbers = set()
+    for text in tables.values():
+        numbers |= set(re.findall(r"(?<![\w.])-?\d+(?:\.\d+)?", text))
+    out = dict(default=default.label, met_all_on_choice=met_choice, minutes=meta["minutes"],
+               tables=tables, quotable=sorted(numbers, key=float))  # fmt: skip
     with atomic_path(path) as tmp:
         Path(tmp).write_text(json.dumps(out, indent=1, sort_keys=True) + "\n")
     return out
