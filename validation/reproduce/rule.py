@@ -85,6 +85,13 @@ def headline_error(summary, design, method):
     return row["lone thalamic error"]
 
 
+def judge(summary, label):
+    """``{design: all criteria met}`` of one method (a candidate or not) on a summary."""
+    designs = [d for d in DESIGNS if (d, label) in summary.index]
+    return {d: all(criteria(summary.loc[(d, label)], reference(summary, d), d).values())
+            for d in designs}  # fmt: skip
+
+
 def choose(summary, candidates):
     """The rule: the default, and the table of every candidate's criteria per design.
 

@@ -105,11 +105,18 @@ def report(path, rows_choice, rows_scored, choice, scored, default, rule_table, 
         f"Designs where it meets every criterion on the choice set: "
         f"{', '.join(d for d in DESIGNS if bool(rule_table.iloc[0].get(d, False))) or 'none'}.",
         "",
-        "## The rule on the choice set (the 12 best candidates)",
+        "## The rule on the choice set (every candidate, in the rule's order)",
         "",
-        _markdown(rule_table.head(12)),
+        _markdown(rule_table),
         "",
     ]
+    from .rule import judge
+
+    for key in ("N2", "N3"):
+        met = judge(choice, names[key].label)
+        lines += [f"{key} ({names[key].label}) under the rule, choice set: meets every "
+                  f"criterion in {', '.join(d for d, ok in met.items() if ok) or 'no design'}"
+                  f" of {len(met)}.", ""]  # fmt: skip
     for d in DESIGNS:
         if d not in choice.index.get_level_values(0):
             continue
@@ -122,6 +129,7 @@ def report(path, rows_choice, rows_scored, choice, scored, default, rule_table, 
             continue
         lines += [f"### {d}", "", table(rows_scored, scored, d, [*skf, *BASELINES, *controls],
                                          labels), ""]  # fmt: skip
+    lines += ["## Where a baseline beats N1 (scored set)", "", losses(rows_scored, default)[0], ""]
     lines += ["## Scored set, each condition", ""]
     by_condition = rows_scored.groupby("condition")
     for cond, sub in by_condition:
@@ -193,11 +201,49 @@ def _summary_table(scored, names):
     return "\n".join(out)
 
 
+def losses(rows_scored, default):
+    """Where a baseline beats N1 on the scored set by more than the criteria's margins.
+
+    Per design and condition (and pooled: condition ``"all"``), every metric of the
+    design's criteria on which a baseline (MNE's methods, LCMV, irMxNE) is better than N1
+    by more than the criterion's margin.
+    """
+    from .rule import CRITERIA, summarize
+
+    n1 = default.label
+    out = []
+    groups = [("all", rows_scored), *rows_scored.groupby("condition")]
+    for cond, sub in groups:
+        summ = summarize(sub, by=("design", "method"))
+        for d, spec in DESIGNS.items():
+            if (d, n1) not in summ.index:
+                continue
+            mine = summ.loc[(d, n1)]
+            for metric, margin in CRITERIA[spec.kind]:
+                if metric == "latency":
+                    margin = 0.1 * spec.support_s * 1e3
+                beaten = []
+                for method in BASELINES:
+                    if (d, method) not in summ.index:
+                        continue
+                    theirs = summ.loc[(d, method)].get(metric, np.nan)
+                    gap = (mine[metric] - theirs) if metric in LOWER else (theirs - mine[metric])
+                    if np.isfinite(gap) and gap > margin:
+                        beaten.append(f"{method} {_fmt(metric, theirs)}")
+                if beaten:
+                    out.append((d, cond, metric, _fmt(metric, mine[metric]), "; ".join(beaten)))
+    head = "| design | condition | metric | N1 | baselines better by more than the margin |"
+    lines = [head, "|---|---|---|---|---|"]
+    lines += ["| " + " | ".join(row) + " |" for row in out]
+    return "\n".join(lines), out
+
+
 def headline(path, rows_scored, scored, default, met_choice, meta):
     """Write ``headline.json``: the default, the tables the pages print, every number quoted."""
     names = named(default)
     labels = {s.label: f"{k}: {s.label}" for k, s in names.items()}
     tables = {"summary": _summary_table(scored, names)}
+    tables["losses"], _ = losses(rows_scored, default)
     for d in DESIGNS:
         if d in scored.index.get_level_values(0):
             methods = [names["N1"].label, names["N3"].label, names["N2"].label, *HEADLINE_METHODS]
