@@ -86,8 +86,10 @@ def run(root, quick, jobs, out, work):
     scored.to_csv(out / "scored_summary.csv", float_format="%.4g")
     with atomic_path(out / "rows.csv.gz") as tmp:
         every.to_csv(tmp, index=False, float_format="%.5g", compression="gzip")
-    write.report(out / "REPORT.md", rows, scored_rows, choice, scored, default, table, meta)
-    write.headline(out / "headline.json", scored_rows, scored, default, met, meta)
+    head = write.headline(out / "headline.json", scored_rows, scored, default, met, meta)
+    write.report(
+        out / "REPORT.md", rows, scored_rows, choice, scored, default, table, meta, head["tables"]
+    )
     with atomic_path(out / "default.json") as tmp:
         Path(tmp).write_text(json.dumps(dict(
             exponent=default.exponent, dynamics=default.dynamics,

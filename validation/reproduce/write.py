@@ -82,7 +82,7 @@ def table(rows, summary, design, methods, labels):
     return "\n".join(out)
 
 
-def report(path, rows_choice, rows_scored, choice, scored, default, rule_table, meta):
+def report(path, rows_choice, rows_scored, choice, scored, default, rule_table, meta, tables):
     """Write ``REPORT.md``: the rule's outcome, every design and condition, the controls."""
     names = named(default)
     labels = {s.label: f"{k}: {s.label}" for k, s in names.items()}
@@ -105,6 +105,9 @@ def report(path, rows_choice, rows_scored, choice, scored, default, rule_table, 
         f"Designs where it meets every criterion on the choice set: "
         f"{', '.join(d for d in DESIGNS if bool(rule_table.iloc[0].get(d, False))) or 'none'}.",
         "",
+        "## Headline (headline.json: the tables the README and the docs print)",
+        "",
+        *[f"**{name}**\n\n{text}\n" for name, text in tables.items()],
         "## The rule on the choice set (every candidate, in the rule's order)",
         "",
         _markdown(rule_table),
@@ -159,6 +162,13 @@ def report(path, rows_choice, rows_scored, choice, scored, default, rule_table, 
 HEADLINE_METHODS = (
     "eLORETA, lambda2 1/9", "eLORETA, lambda2 matched", "sLORETA, lambda2 matched",
     "dSPM, lambda2 matched", "MNE, lambda2 matched", "LCMV",
+)  # fmt: skip
+#: Numbers the pages may quote about the study's design (section 1-6 of the
+#: pre-registration): versions, sizes, rates, times, SNR, margins, the candidates' settings.
+DESIGN_NUMBERS = (
+    "0", "0.1", "0.3", "0.5", "1", "2", "3", "4", "5", "6", "8", "9", "10", "15", "16",
+    "20", "24", "25", "30", "41", "48", "50", "59", "60", "64", "80", "100", "130", "201",
+    "300", "306", "350", "500", "1000", "3550", "10650",
 )  # fmt: skip
 #: The summary's columns: the headline error of each design, detection where there is one.
 KEY = {"pair": "deep error", "two": "left error", "lone": "lone thalamic error"}
@@ -248,7 +258,7 @@ def headline(path, rows_scored, scored, default, met_choice, meta):
         if d in scored.index.get_level_values(0):
             methods = [names["N1"].label, names["N3"].label, names["N2"].label, *HEADLINE_METHODS]
             tables[d] = table(rows_scored, scored, d, methods, labels)
-    numbers = set()
+    numbers = set(DESIGN_NUMBERS) | {meta["minutes"]}
     for text in tables.values():
         numbers |= set(re.findall(r"(?<![\w.])-?\d+(?:\.\d+)?", text))
     out = dict(default=default.label, met_all_on_choice=met_choice, minutes=meta["minutes"],
