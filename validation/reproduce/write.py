@@ -181,6 +181,7 @@ def _summary_table(scored, names):
         "error measured",
         "N1 (the default)",
         "N3 (0.4 default)",
+        "memoryless SKF",
         "best matched minimum norm",
         "eLORETA 1/9",
         "N1 detection",
@@ -202,6 +203,7 @@ def _summary_table(scored, names):
             key,
             get(names["N1"].label, key),
             get(names["N3"].label, key),
+            get(f"memoryless SKF ({names['N1'].standardize})", key),
             _fmt(key, ref.get(key, np.nan)),
             get("eLORETA, lambda2 1/9", key),
             get(names["N1"].label, "detection") if spec.kind == "pair" else "-",
@@ -256,7 +258,9 @@ def headline(path, rows_scored, scored, default, met_choice, meta):
     tables["losses"], _ = losses(rows_scored, default)
     for d in DESIGNS:
         if d in scored.index.get_level_values(0):
-            methods = [names["N1"].label, names["N3"].label, names["N2"].label, *HEADLINE_METHODS]
+            memoryless = f"memoryless SKF ({default.standardize})"
+            methods = [names["N1"].label, names["N3"].label, names["N2"].label, memoryless,
+                       *HEADLINE_METHODS]  # fmt: skip
             tables[d] = table(rows_scored, scored, d, methods, labels)
     numbers = set(DESIGN_NUMBERS) | {meta["minutes"]}
     for text in tables.values():
