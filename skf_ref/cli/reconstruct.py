@@ -31,10 +31,12 @@ by the evoked's nave (an epochs file is averaged first, and says so), reduced to
 rank; and writes an MNE source estimate (.stc, .h5) or arrays (.npz). The array route
 (--leadfield/--data) runs skf_ref.reconstruct on the arrays as they are (rows matched by
 name when both files name them) and writes .npz. The priors are numbers in dB, or chosen
-by the data: auto, or a range to search, e.g. --pm-snr-db -40,20. --time-constant-ms
-replaces the paper's random walk (--ep-snr-db) by the stationary AR(1) prior with that
-time constant (or auto), at the evoked's sampling rate (--sfreq on the array route,
-unless the data file is MNE's). Beside the output,
+by the data: auto, or a range to search, e.g. --pm-snr-db -40,20. The evolution prior is
+the stationary AR(1) prior with its time constant chosen by the data (--time-constant-ms
+auto, the default where the sampling rate is known: the MNE route, or --sfreq), or a time
+constant in ms; --ep-snr-db runs the paper's random walk instead (the array route's
+default without --sfreq, at 0 dB). The smoother defaults to rts-smoothed-weights (the
+evidence study v3's rule). Beside the output,
 NAME.json records every setting, the nave, the channels used and left out, and the
 package versions.
 """
@@ -184,9 +186,12 @@ def _route(args):
             "--time-constant-ms (the stationary AR(1) prior), not both"
         )
     if args.time_constant_ms is None and args.ep_snr_db is None:
-        from ..method._priors import DEFAULT_EP_SNR_DB
+        from ..method._priors import DEFAULT_EP_SNR_DB, DEFAULT_TIME_CONSTANT_MS
 
-        args.ep_snr_db = DEFAULT_EP_SNR_DB  # the paper's random walk, at 0 dB
+        if mne_route or args.sfreq is not None:  # the AR(1) prior, chosen by the data
+            args.time_constant_ms = DEFAULT_TIME_CONSTANT_MS
+        else:  # an array without its rate: the paper's random walk, at 0 dB
+            args.ep_snr_db = DEFAULT_EP_SNR_DB
     _check_route_options(args, mne_route)
     _check_outputs(args)
     args.standardize_given = args.standardize is not None

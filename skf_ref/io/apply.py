@@ -79,7 +79,7 @@ def apply_skf(
     ep_snr_db: Any = None,
     time_constant_ms: Any = None,
     exponent: float = 0.5,
-    smoother: str | None = None,
+    smoother: str | None = "rts-smoothed-weights",
     pick_ori: str | None = None,
     method: str = "auto",
     standardize: str | None = None,
@@ -161,7 +161,7 @@ def apply_skf(
         (the PM-SNR stays the operator's). Default None: the operator's, or the random walk.
     exponent : float
         Standardization exponent alpha, >= 0.
-    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
+    smoother : {"rts-smoothed-weights", None, "rts-standardized", "rts-state"}
         docs/model.md §3; ``"rts-smoothed-weights"`` divides the smoothed state by its own
         standard deviation.
     pick_ori : {None, "vector"}
@@ -238,7 +238,7 @@ def apply_skf_epochs(
     operator: SKFOperator,
     *,
     exponent: float = 0.5,
-    smoother: str | None = None,
+    smoother: str | None = "rts-smoothed-weights",
     pick_ori: str | None = None,
     method: str = "auto",
     standardize: str | None = None,
@@ -259,7 +259,7 @@ def apply_skf_epochs(
     operator : SKFOperator
     exponent : float
         As :func:`apply_skf`.
-    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
+    smoother : {"rts-smoothed-weights", None, "rts-standardized", "rts-state"}
         As :func:`apply_skf`.
     pick_ori : {None, "vector"}
         As :func:`apply_skf`.

@@ -44,7 +44,7 @@ import numpy as np
 from .._utils.checks import InputError, InputTypeError, describe
 from .._utils.extras import optional
 from .._utils.log import caller_stacklevel, logger, verbosity
-from ..method._priors import DEFAULT_EP_SNR_DB
+from ..method._priors import DEFAULT_TIME_CONSTANT_MS
 from ..method._search import check_one_evolution_prior, check_time_constant
 from .channels import channel_types, has_average_reference_projector, pick_channels
 from .noise_cov import ad_hoc_covariance, check_noise_covariance, given_covariance
@@ -148,17 +148,19 @@ def make_skf_operator(
         exactly one of the two.
     pm_snr_db, ep_snr_db : float or "auto" or (float, float)
         The priors' SNRs in dB (docs/model.md §4, on the whitened lead field), default 0
-        and 0 dB (the study's rule, validation/archive/report-v2/REPORT.md). ``"auto"``
-        or a range ``(low, high)`` in dB: chosen from each data set the operator is
-        applied to by the marginal likelihood (:func:`skf_ref.tune`; ``"auto"`` searches
-        -20 to 40 dB). ``ep_snr_db`` None (not given): 0 dB for the paper's random walk.
+        dB for the PM-SNR. ``"auto"`` or a range ``(low, high)`` in dB: chosen from each data
+        set the operator is applied to by the marginal likelihood (:func:`skf_ref.tune`;
+        ``"auto"`` searches -20 to 40 dB). ``ep_snr_db`` given: the paper's random walk at
+        that EP-SNR (its default before 0.5.0 was the walk at 0 dB); None (default): the
+        AR(1) prior below.
     time_constant_ms : float or "auto" or (float, float), optional
         In place of the EP-SNR's random walk, the stationary AR(1) prior
         (:func:`skf_ref.ar1_priors`): the sources' time constant in ms, ``rho =
         exp(-dt / tau)`` with ``dt`` from the data's ``info["sfreq"]``; ``"auto"`` or a
         range ``(low, high)`` in ms: chosen from each data set by the marginal likelihood in
         ``log(tau)`` (``"auto"`` searches 1 to 1000 ms). Give it or ``ep_snr_db``, not
-        both. Default None: the random walk.
+        both. Default None: ``"auto"`` (the evidence study v3's rule,
+        validation/reproduce/PREREGISTRATION.md), unless ``ep_snr_db`` is given.
     meg : None or bool or "mag" or "grad"
         MEG channels: None (default) uses them when the info, the forward and the noise
         covariance share them; True asks for them; ``"mag"`` or ``"grad"`` for one kind
@@ -209,12 +211,12 @@ def make_skf_operator(
             raise InputTypeError(f"forward must be an mne.Forward, got {describe(forward)}")
         channel_types(meg, eeg)
         check_one_evolution_prior(ep_snr_db, time_constant_ms)
-        pm, tau = check_prior("pm_snr_db", pm_snr_db), None
-        if time_constant_ms is not None:
-            ep, tau = None, check_time_constant(time_constant_ms)
-        else:  # the random walk, at EP-SNR 0 dB unless given
-            given = DEFAULT_EP_SNR_DB if ep_snr_db is None else ep_snr_db
-            ep = check_prior("ep_snr_db", given)
+        pm, tau, ep = check_prior("pm_snr_db", pm_snr_db), None, None
+        if ep_snr_db is not None:  # the paper's random walk
+            ep = check_prior("ep_snr_db", ep_snr_db)
+        else:  # the AR(1) prior, its time constant chosen by the data unless given
+            given = DEFAULT_TIME_CONSTANT_MS if time_constant_ms is None else time_constant_ms
+            tau = check_time_constant(given)
         covariance = given_covariance(noise_cov, noise_std)
         used, dropped = pick_channels(info, forward, covariance, meg, eeg)
         picked = mne.pick_info(info, [info.ch_names.index(name) for name in used])

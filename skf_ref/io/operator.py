@@ -388,7 +388,7 @@ class SKFOperator:
         *,
         nave: float = 1,
         exponent: float = 0.5,
-        smoother: str | None = None,
+        smoother: str | None = "rts-smoothed-weights",
         method: str = "auto",
         memory_limit: float | None = None,
         standardize: str | None = None,
@@ -406,7 +406,7 @@ class SKFOperator:
             The number of trials averaged (``evoked.nave``; 1 for epochs and raw
             recordings): the data are whitened with the noise covariance divided by it.
         exponent : float
-        smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
+        smoother : {"rts-smoothed-weights", None, "rts-standardized", "rts-state"}
         method : {"auto", "spectral", "dense", "filterpy"}
             ``"auto"`` and ``"spectral"`` reuse the operator's SVD and recursions.
         memory_limit : float, optional

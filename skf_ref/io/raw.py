@@ -38,7 +38,7 @@ def apply_skf_raw(
     stop: int | None = None,
     *,
     exponent: float = 0.5,
-    smoother: str | None = None,
+    smoother: str | None = "rts-smoothed-weights",
     pick_ori: str | None = None,
     standardize: str | None = None,
     method: str = "auto",
@@ -72,7 +72,7 @@ def apply_skf_raw(
         The first sample and the one after the last (indices, as ``raw.get_data``).
     exponent : float
         As :func:`apply_skf`.
-    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
+    smoother : {"rts-smoothed-weights", None, "rts-standardized", "rts-state"}
         As :func:`apply_skf`.
     pick_ori : {None, "vector"}
         As :func:`apply_skf`.

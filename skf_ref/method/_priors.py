@@ -37,6 +37,7 @@ from .._utils.checks import (
 
 __all__ = [
     "DEFAULT_EP_SNR_DB",
+    "DEFAULT_TIME_CONSTANT_MS",
     "ar1_coefficients",
     "ar1_priors",
     "evolution_variance",
@@ -46,10 +47,14 @@ __all__ = [
 ]
 
 CONVENTIONS = ("gain", "toolbox")
-#: The random walk's EP-SNR (dB) where neither an EP-SNR nor a time constant is given: the
-#: study's rule (validation/archive/report-v2/REPORT.md), on every route that makes an
-#: operator.
+#: The random walk's EP-SNR (dB) where neither an EP-SNR nor a time constant is given and no
+#: sampling rate is known (bare arrays): the study v2's rule (validation/archive/report-v2/).
 DEFAULT_EP_SNR_DB = 0.0
+#: The evolution prior where neither is given and the sampling rate is known (the MNE routes,
+#: the command line's MNE route, the demo): the stationary AR(1) prior, its time constant
+#: chosen by the data's marginal likelihood (the evidence study v3's rule,
+#: validation/reproduce/PREREGISTRATION.md).
+DEFAULT_TIME_CONSTANT_MS = "auto"
 
 
 def _variance(name: str, compute: Callable[[], float], formula: str) -> float:

@@ -28,18 +28,23 @@ __all__ = [
     "check_smoother",
 ]
 
-#: The exponent and smoother the package recommends and defaults to: exponent 0.5 without
-#: smoothing. Chosen by a rule committed before the numbers it read (validation/archive/
-#: report-v2/REPORT.md, "The default, by a rule committed first"): of 64 settings (exponent x
-#: smoother x standardization x priors), the one meeting the three success criteria with the
-#: lowest localization error, "SKF 0.5, no smoother, position, EP 0 / PM 0". Its other two parts
-#: are not in this mapping, which ``reconstruct(L, Y, ..., **RECOMMENDED_SETTING)`` takes
-#: on bare arrays: the standardization ``standardize="position"`` (each source position's
-#: block; needs ``n_orient``, which an array does not carry, so :func:`skf_ref.reconstruct`
-#: defaults to ``"column"`` and the MNE routes, which take ``n_orient`` from the forward,
-#: to ``"position"``), and the priors PM-SNR 0 dB, EP-SNR 0 dB (the defaults of
-#: :func:`skf_ref.make_skf_operator`, :func:`skf_ref.apply_skf` and the command line).
-RECOMMENDED_SETTING = MappingProxyType({"exponent": 0.5, "smoother": None})
+#: The exponent and smoother the package recommends and defaults to: exponent 0.5 with the
+#: smoother whose standardization uses the smoothed covariances ("rts-smoothed-weights").
+#: Chosen by the evidence study v3's rule, committed before the numbers it read
+#: (validation/reproduce/PREREGISTRATION.md, section 6; validation/report/REPORT.md): of 48
+#: settings (evolution prior x standardization x smoother), the one meeting the success
+#: criteria against the best minimum-norm method at the matched regularization in all five
+#: designs (the paper's pulses, an ERP, 10 Hz, two cortical sources, MEG), "SKF 0.5, AR auto,
+#: position, rts-smoothed-weights". Its other parts are not in this mapping, which
+#: ``reconstruct(L, Y, ..., **RECOMMENDED_SETTING)`` takes on bare arrays: the
+#: standardization ``standardize="position"`` (each source position's block; needs
+#: ``n_orient``, which an array does not carry, so :func:`skf_ref.reconstruct` defaults to
+#: ``"column"`` and the MNE routes, which take ``n_orient`` from the forward, to
+#: ``"position"``), and the priors: PM-SNR 0 dB and the stationary AR(1) prior with its time
+#: constant chosen by the data (``time_constant_ms="auto"``, the default of
+#: :func:`skf_ref.make_skf_operator`, :func:`skf_ref.apply_skf` and the command line's MNE
+#: route, which know the sampling rate; an array does not, and takes the random walk).
+RECOMMENDED_SETTING = MappingProxyType({"exponent": 0.5, "smoother": "rts-smoothed-weights"})
 #: The paper's setting (exponent 1.25, its smoother), one argument away:
 #: ``reconstruct(L, Y, ..., **PAPER_SETTING)``. In the study it "detects" a deep source that
 #: is absent from the data in most runs at 20-30 dB.
