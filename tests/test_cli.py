@@ -58,19 +58,34 @@ def test_demo_writes_figures_arrays_and_metrics(demo_dir, capsys):
     # the recommended setting by default, the paper's beside it
     assert {k: settings[k] for k in ("exponent", "smoother")} == skf_ref.RECOMMENDED_SETTING
     assert settings["paper_setting"] == dict(skf_ref.PAPER_SETTING)
+    # the AR(1) prior, its time constant chosen by the data, recorded with its transition
+    assert settings["evolution_prior"] == "ar1" and settings["time_constant_ms"] == "auto"
+    tau, rho = settings["tuned_time_constant_ms"], settings["transition"]
+    assert rho == pytest.approx(np.exp(-1e3 / settings["sfreq"] / tau), rel=1e-12)
 
 
 @pytest.mark.slow
 def test_demo_prints_the_metrics_table(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path), *SMALL, "--snr-db", "20"]) == 0
     printed = capsys.readouterr().out
-    assert (
-        "SNR 20 dB, EP-SNR 0 dB, PM-SNR 0 dB (the paper's setting at its own, EP-SNR 20 dB"
-        in printed
-    )
-    assert "480 positions" in printed and "superficial_error_mm" in printed
-    for label in ("exponent 0.5, no smoother", "(paper)", "sLORETA", "deep absent"):
+    # which prior each SKF ran: the AR(1) prior chosen by the data, the paper's own priors
+    first, paper = printed.split("\n")[1].split("; the paper's setting ")
+    assert first.startswith("SNR 20 dB; first SKF: PM-SNR 0 dB, the AR(1) prior with time ")
+    assert " ms (chosen by the data in 1..1000 ms" in first
+    assert paper.startswith("at its own priors: PM-SNR 0 dB, the random walk at EP-SNR 20 dB;")
+    assert "; 480 positions (biosemi64)" in paper
+    assert "superficial_error_mm" in printed
+    for label in ("exponent 0.5, rts-smoothed-weights", "(paper)", "sLORETA", "deep absent"):
         assert label in printed, label
+
+
+@pytest.mark.slow
+def test_demo_ep_snr_db_runs_the_random_walk(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path), *SMALL, "--ep-snr-db", "0"]) == 0
+    printed = capsys.readouterr().out
+    assert "first SKF: PM-SNR 0 dB, the random walk at EP-SNR 0 dB;" in printed
+    settings = json.loads((tmp_path / "settings.json").read_text())
+    assert settings["evolution_prior"] == "random walk" and settings["transition"] == 1.0
 
 
 @pytest.mark.slow
@@ -131,6 +146,12 @@ def test_every_option_shows_its_default(command, capsys):
         (["demo", "--positions", "500"], "--positions: n_positions sizes the sphere's volume"),
         (["demo", "--seed", "-1"], "argument --seed: must be >= 0, got -1"),
         (["demo", "--smoother", "kalman"], "invalid choice"),
+        (["demo", "--time-constant-ms", "0"], "argument --time-constant-ms: must be > 0"),
+        (
+            ["demo", "--ep-snr-db", "20", "--time-constant-ms", "30"],
+            "argument --time-constant-ms: give --ep-snr-db (the paper's random walk) or "
+            "--time-constant-ms (the stationary AR(1) prior), not both",
+        ),
         (["demo", "--mne-testing-data", "."], "--mne-testing-data: testing_data must be MNE's"),
         (["demo", "--head", "sphere", "--mne-testing-data", "."], "not used with --head sphere"),
         (["sweep", "--out", "x.csv", "--smoother", "none", "--exponent"], "expected at least one"),

@@ -63,9 +63,13 @@ def test_the_routes_that_know_the_orientations_default_to_the_rules_standardizat
     assert default(skf_ref.make_skf_operator, "ep_snr_db") is None and DEFAULT_EP_SNR_DB == 0.0
     assert default(skf_ref.make_skf_operator, "time_constant_ms") is None
     assert default(skf_ref.make_skf_operator, "pm_snr_db") == 0.0
-    assert default(run_demo, "ep_snr_db") == 0.0 and default(run_demo, "pm_snr_db") == 0.0
+    # the demo knows its sampling rate: the AR(1) prior, its time constant chosen by the data
+    from skf_ref.method._priors import DEFAULT_TIME_CONSTANT_MS
+
+    assert default(run_demo, "ep_snr_db") is None and default(run_demo, "pm_snr_db") == 0.0
+    assert default(run_demo, "time_constant_ms") == DEFAULT_TIME_CONSTANT_MS == "auto"
     commands = build_parser()._subparsers._group_actions[0].choices
-    for command, ep in (("demo", 0.0), ("reconstruct", None)):  # None: 0 dB, as above
+    for command, ep in (("demo", None), ("reconstruct", None)):  # None: as above
         priors = [commands[command].get_default(k) for k in ("pm_snr_db", "ep_snr_db")]
         assert priors == [0.0, ep], command
     assert commands["demo"].get_default("standardize") == "position"

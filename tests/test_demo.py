@@ -72,6 +72,50 @@ def test_the_settings_are_the_recommended_and_the_papers(demo):
     assert demo.settings["theta0"] == skf.theta0 and demo.settings["q"] == skf.q
 
 
+def test_the_first_skf_runs_the_ar1_prior_its_time_constant_chosen_by_the_data(demo):
+    # the package's default (the evidence study v3's rule): PM-SNR 0 dB and the stationary
+    # AR(1) prior, tau chosen by the marginal likelihood at the simulation's 10 kHz
+    from skf_ref.method._priors import DEFAULT_TIME_CONSTANT_MS
+
+    settings, skf = demo.settings, demo.reconstructions["skf", "present"]
+    assert settings["evolution_prior"] == "ar1" and settings["sfreq"] == 10000.0
+    assert settings["time_constant_ms"] == DEFAULT_TIME_CONSTANT_MS == "auto"
+    assert settings["pm_snr_db"] == settings["tuned_pm_snr_db"] == 0.0
+    tau = settings["tuned_time_constant_ms"]
+    rho = np.exp(-1e3 / settings["sfreq"] / tau)
+    assert skf.transition == pytest.approx(rho, rel=1e-12) and 0 < rho < 1
+    assert settings["transition"] == skf.transition
+    assert skf.q == pytest.approx((1 - rho**2) * skf.theta0, rel=1e-9)  # stationary
+    for data in DATA:  # the control runs at the priors chosen on the data with both sources
+        rec = demo.reconstructions["skf", data]
+        assert (rec.theta0, rec.q, rec.transition) == (skf.theta0, skf.q, skf.transition)
+    # the paper's setting keeps the paper's priors: PM-SNR 0 dB, the random walk at 20 dB
+    paper = demo.reconstructions["paper", "present"]
+    assert (settings["paper_pm_snr_db"], settings["paper_ep_snr_db"]) == (0.0, 20.0)
+    assert paper.transition == 1.0 and paper.theta0 == pytest.approx(skf.theta0, rel=1e-12)
+    assert paper.q == pytest.approx(100 * paper.theta0 / 41, rel=1e-12)  # 10**(20/10) theta0/K
+
+
+def test_the_calibration_runs_the_model_the_demo_runs(demo):
+    # the thresholds' null runs go through the same SKFs, transition included
+    from skf_ref.study.demo import _methods
+
+    priors = (demo.settings["theta0"], demo.settings["q"], demo.settings["transition"])
+    setting = {k: demo.settings[k] for k in ("exponent", "smoother", "standardize")}
+    runs = {"skf": (priors, {**setting, "n_orient": 3})}
+    present = demo.simulations["present"]
+    skf = _methods(demo.head, present, runs, sloreta=None)["skf"]
+    np.testing.assert_array_equal(skf(present.Y), demo.estimates["skf", "present"])
+
+
+def test_ep_snr_db_runs_the_papers_random_walk_instead():
+    walk = run_demo(**SMALL, ep_snr_db=0.0, verbose=False)
+    skf, settings = walk.reconstructions["skf", "present"], walk.settings
+    assert settings["evolution_prior"] == "random walk" and skf.transition == 1.0
+    assert settings["time_constant_ms"] is None and not settings["priors_chosen_by_the_data"]
+    assert skf.q == pytest.approx(skf.theta0 / 41, rel=1e-12)  # EP-SNR 0 dB: theta0 / K
+
+
 @pytest.mark.slow
 def test_nothing_is_written_without_a_folder_and_everything_with_one(demo, tmp_path):
     from skf_ref.study.demo import write
@@ -97,6 +141,11 @@ def test_bad_input_names_the_parameter_before_any_work(tmp_path):
         run_demo(head="sphere", n_positions=500)
     with pytest.raises(skf_ref.InputError, match="verbose must be"):
         run_demo(**SMALL, verbose="loud")
+    with pytest.raises(skf_ref.InputError, match="give ep_snr_db .* or time_constant_ms .*"):
+        run_demo(tmp_path / "out", **SMALL, ep_snr_db=20.0, time_constant_ms=30.0)
+    with pytest.raises(skf_ref.InputError, match="time_constant_ms must be > 0"):
+        run_demo(tmp_path / "out", **SMALL, time_constant_ms=0)
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.slow

@@ -5,10 +5,11 @@ from __future__ import annotations
 import argparse
 import re
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from .._utils.checks import InputError
 from ..method import RECOMMENDED_SETTING
+from ..method._priors import DEFAULT_TIME_CONSTANT_MS
 from ..study.sizes import DEFAULT_POSITIONS, SCENARIO_MIN_POSITIONS
 from ._args import Parser, add_skf_options, db, integer
 
@@ -51,8 +52,12 @@ def add_parser(subparsers: argparse._SubParsersAction[Parser]) -> None:
         description="Simulate the P20/N20 scenario (a deep thalamic and a superficial "
         "cortical dipole, 2 ms apart) and its control with the deep source left out (the "
         "same noise); reconstruct both with the SKF at the chosen setting (default: the "
-        "recommended one, exponent 0.5 without smoothing), with the SKF at the paper's "
-        "setting (exponent 1.25, rts-standardized) and with MNE's sLORETA; print the metrics "
+        "package's, exponent 0.5 with the rts-smoothed-weights smoother, each position "
+        "standardized as a whole, PM-SNR 0 dB and the stationary AR(1) prior with its time "
+        "constant chosen by the data; --ep-snr-db runs the paper's random walk instead), "
+        "with the SKF at the paper's setting (exponent 1.25, rts-standardized, at its priors: "
+        "PM-SNR 0 dB, the random walk at EP-SNR 20 dB) and with MNE's sLORETA; print the "
+        "metrics "
         "and write the side-by-side figure (comparison.png), time courses and projections "
         "(PNG), arrays (reconstruction.npz), the metrics (metrics.csv, explained in "
         "metrics_columns.csv) and everything that produced them (settings.json) to the "
@@ -74,7 +79,22 @@ def add_parser(subparsers: argparse._SubParsersAction[Parser]) -> None:
         exponent=RECOMMENDED_SETTING["exponent"],
         smoother=RECOMMENDED_SETTING["smoother"] or "none",
         smoother_help="smoother of the first SKF (the second is the paper's setting)",
+        time_constant=True,
     )
+    # the evolution prior: the AR(1) prior with its time constant chosen by the data unless
+    # --ep-snr-db is given (not given: None, which run() resolves)
+    helps = {
+        "ep_snr_db": "the first SKF runs the paper's random walk with this EP-SNR prior instead "
+        "of the AR(1) prior (dB; or chosen by the data: auto (searched in -20..40 dB) or "
+        "LOW,HIGH, e.g. -40,20; the paper's setting then runs at the priors chosen too) "
+        "(default: not given: the AR(1) prior of --time-constant-ms)",
+        "time_constant_ms": "the first SKF's stationary AR(1) prior: the sources' time "
+        "constant in ms at the simulation's 10 kHz (rho = exp(-dt / tau), q = (1 - rho^2) "
+        "theta0); or chosen by the data: auto (searched in 1..1000 ms) or LOW,HIGH (e.g. "
+        "0.1,1000). Not with --ep-snr-db (default: auto, unless --ep-snr-db is given)",
+    }
+    for action in demo._actions:  # add_skf_options' words are the reconstruct command's
+        action.help = helps.get(action.dest, action.help)
     demo.add_argument(
         "--standardize",
         choices=("position", "column"),
@@ -138,6 +158,13 @@ def run(args: argparse.Namespace) -> Demo:
 
     if args.head == "sphere" and args.mne_testing_data is not None:
         raise InputError("--mne-testing-data: not used with --head sphere; drop one")
+    if args.ep_snr_db is not None and args.time_constant_ms is not None:
+        raise InputError(
+            "argument --time-constant-ms: give --ep-snr-db (the paper's random walk) or "
+            "--time-constant-ms (the stationary AR(1) prior), not both"
+        )
+    if args.ep_snr_db is None and args.time_constant_ms is None:
+        args.time_constant_ms = DEFAULT_TIME_CONSTANT_MS  # the AR(1) prior, chosen by the data
     try:
         check_montage(args.montage)  # before the first progress line
         demo = run_demo(
@@ -152,6 +179,7 @@ def run(args: argparse.Namespace) -> Demo:
             cache_dir=args.cache_dir,
             pm_snr_db=args.pm_snr_db,
             ep_snr_db=args.ep_snr_db,
+            time_constant_ms=args.time_constant_ms,
             exponent=args.exponent,
             smoother=None if args.smoother == "none" else args.smoother,
             standardize=args.standardize,
@@ -161,12 +189,9 @@ def run(args: argparse.Namespace) -> Demo:
     except (InputError, MemoryError) as err:
         raise type(err)(_as_flag(str(err))) from None
     print(f"head: {_head_line(demo, args)}")
-    tuned = demo.settings["priors_chosen_by_the_data"]
-    paper = "" if tuned else " (the paper's setting at its own, EP-SNR 20 dB, PM-SNR 0 dB)"
     print(
-        f"SNR {args.snr_db:g} dB, EP-SNR {_db(args.ep_snr_db)}, PM-SNR {_db(args.pm_snr_db)}"
-        f"{paper}, {demo.head.n_positions} positions ({demo.head.montage}); the deep source "
-        "present and absent (the same noise):"
+        f"SNR {args.snr_db:g} dB; {_priors_line(demo)}; {demo.head.n_positions} positions "
+        f"({demo.head.montage}); the deep source present and absent (the same noise):"
     )
     calibrated = "detection_threshold" in demo.metrics.index
     table = demo.metrics.loc[list(_PRINTED if calibrated else _PRINTED_6DB)].T
@@ -186,10 +211,39 @@ def _three_digits(value: object) -> object:
     return f"{value:.3g}" if isinstance(value, float) else value
 
 
-def _db(value: float | str | tuple[float, float]) -> str:
-    if isinstance(value, tuple):  # a range searched
-        return f"searched in {value[0]:g}..{value[1]:g} dB"
-    return value if value == "auto" else f"{value:g} dB"
+def _prior(name: str, settings: dict[str, Any], unit: str) -> str:
+    """A prior as run: the number given, or the one the data chose, its range and whether it
+    lies on an end of it."""
+    from ..method._search import AUTO_RANGE_DB, AUTO_TIME_CONSTANT_MS
+
+    value = settings[name]
+    if isinstance(value, (int, float)):
+        return f"{value:g} {unit}"
+    if value == "auto":
+        value = AUTO_TIME_CONSTANT_MS if unit == "ms" else AUTO_RANGE_DB
+    low, high = value
+    end = settings["tuned_at_bound"].get(name)
+    chosen = settings[f"tuned_{name}"]
+    on_end = f": on its {end} end" if end else ""
+    return f"{chosen:.3g} {unit} (chosen by the data in {low:g}..{high:g} {unit}{on_end})"
+
+
+def _priors_line(demo: Demo) -> str:
+    """Which priors each SKF ran: the first's PM-SNR and evolution prior, the paper's."""
+    s = demo.settings
+    if s["evolution_prior"] == "ar1":
+        evolution = f"the AR(1) prior with time constant {_prior('time_constant_ms', s, 'ms')}"
+    else:
+        evolution = f"the random walk at EP-SNR {_prior('ep_snr_db', s, 'dB')}"
+    paper = (
+        f"PM-SNR {s['paper_pm_snr_db']:.3g} dB, the random walk at EP-SNR "
+        f"{s['paper_ep_snr_db']:.3g} dB"
+    )
+    shared = s["priors_chosen_by_the_data"] and s["evolution_prior"] != "ar1"
+    return (
+        f"first SKF: PM-SNR {_prior('pm_snr_db', s, 'dB')}, {evolution}; the paper's setting "
+        f"at {'the same priors' if shared else 'its own priors'}: {paper}"
+    )
 
 
 #: The library's parameter names and the flags that set them.

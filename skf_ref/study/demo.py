@@ -4,12 +4,16 @@ One simulated data set of the paper's scenario (a deep thalamic and a superficia
 dipole, 2 ms apart) and its control, the same noise with the deep source left out, each
 reconstructed three ways:
 
-- the SKF at the chosen setting (default: the one the study's rule chose, exponent 0.5
-  without smoothing, :data:`skf_ref.RECOMMENDED_SETTING`, each source position
-  standardized as a whole, priors PM-SNR 0 dB and EP-SNR 0 dB);
+- the SKF at the chosen setting (default: the package's, which the evidence study v3's
+  pre-registered rule chose, validation/reproduce/PREREGISTRATION.md: exponent 0.5 with
+  the ``"rts-smoothed-weights"`` smoother, :data:`skf_ref.RECOMMENDED_SETTING`, each
+  source position standardized as a whole, PM-SNR 0 dB and the stationary AR(1) evolution
+  prior with its time constant chosen by the data's marginal likelihood at the
+  simulation's 10 kHz; ``ep_snr_db`` runs the paper's random walk instead);
 - the SKF at the paper's setting (exponent 1.25, ``"rts-standardized"``,
-  :data:`skf_ref.PAPER_SETTING`) with the paper's priors for it, PM-SNR 0 dB and EP-SNR
-  20 dB (with ``"auto"`` priors, the ones chosen for the first);
+  :data:`skf_ref.PAPER_SETTING`) with the paper's priors for it, PM-SNR 0 dB and the random
+  walk at EP-SNR 20 dB (when the first runs the walk with ``"auto"`` priors, the ones
+  chosen for the first);
 - MNE's sLORETA (``mne.minimum_norm``, lambda2 = 1/9, the same noise covariance).
 
 The metrics say, for each, where the peaks are and whether the thalamus "detects" a source
@@ -37,7 +41,9 @@ import numpy as np
 from .._utils.atomic_files import atomic_path
 from .._utils.checks import InputError, check_choice, check_instance, check_int, check_path
 from .._utils.log import logger, progress, verbosity
-from ..method import PAPER_SETTING
+from ..method import PAPER_SETTING, RECOMMENDED_SETTING
+from ..method._priors import DEFAULT_TIME_CONSTANT_MS
+from ..method._search import check_one_evolution_prior, check_time_constant
 from ..method._settings import STANDARDIZATIONS, check_smoother
 from .metrics import COLUMNS as _SUMMARY_COLUMNS
 from .sizes import DEFAULT_POSITIONS
@@ -77,8 +83,11 @@ OUTPUTS = (
     "time_courses_skf.png",
 )
 _SLORETA_LAMBDA2 = 1.0 / 9.0
-#: The paper's priors for its setting (PM-SNR, EP-SNR in dB), as the study runs it.
+#: The paper's priors for its setting (PM-SNR, EP-SNR of the random walk, in dB), as the
+#: study runs it.
 _PAPER_PRIORS = (0.0, 20.0)
+#: An SKF's priors: theta0, q and the transition (``A = transition I``; 1: the random walk).
+_Priors = tuple[float, float, float]
 _SUFFIX = {"present": "", "deep absent": "_deep_absent"}  # of the arrays' names
 #: The summary's metrics the demo names otherwise (:func:`skf_ref.study.metrics.summarize` ->
 #: metrics.csv): "within 6 dB of the global maximum" says where an estimate is largest, not
@@ -158,10 +167,11 @@ def run_demo(
     n_positions: int | None = None,
     testing_data: str | os.PathLike | None = None,
     cache_dir: str | os.PathLike | None = None,
-    pm_snr_db: float | str = 0.0,
-    ep_snr_db: float | str = 0.0,
-    exponent: float = 0.5,
-    smoother: str | None = None,
+    pm_snr_db: float | str | tuple[float, float] = 0.0,
+    ep_snr_db: float | str | tuple[float, float] | None = None,
+    time_constant_ms: float | str | tuple[float, float] = DEFAULT_TIME_CONSTANT_MS,
+    exponent: float = RECOMMENDED_SETTING["exponent"],
+    smoother: str | None = RECOMMENDED_SETTING["smoother"],
     standardize: str = "position",
     overwrite: bool = False,
     verbose: bool | str | int | None = None,
@@ -187,13 +197,25 @@ def run_demo(
         Positions of the sphere's volume grid (only there; default 3000).
     testing_data, cache_dir : path-like or None
         MNE's testing dataset folder, and where the realistic head's forwards are cached.
-    pm_snr_db, ep_snr_db : float or "auto"
-        The first SKF's priors (docs/model.md §4); "auto": chosen by the marginal
-        likelihood of the data with both sources, for both SKFs; the control reuses them.
-        With numbers, the paper's setting runs at its own priors, PM-SNR 0 and EP-SNR 20 dB.
+    pm_snr_db : float or "auto" or (float, float)
+        The first SKF's PM-SNR (docs/model.md §4); "auto" or a range: chosen by the marginal
+        likelihood of the data with both sources; the control and the null runs of the
+        calibration reuse the priors chosen.
+    ep_snr_db : float or "auto" or (float, float) or None
+        Given: the first SKF runs the paper's random walk at this EP-SNR instead of the
+        AR(1) prior (the package's default before the evidence study v3 was the walk at 0
+        dB). If the walk's priors are chosen by the data ("auto"), the paper's setting runs
+        at them too; otherwise at its own, PM-SNR 0 dB and the walk at EP-SNR 20 dB. None
+        (default): the AR(1) prior.
+    time_constant_ms : float or "auto" or (float, float)
+        The first SKF's stationary AR(1) prior (:func:`skf_ref.ar1_priors`): its time
+        constant in ms at the simulation's sampling rate, or chosen by the data's marginal
+        likelihood ("auto", the default, :data:`skf_ref.method._priors.DEFAULT_TIME_CONSTANT_MS`:
+        1 to 1000 ms; or a range; None is the default too). Give another value or
+        ``ep_snr_db``, not both. The paper's setting keeps its own priors.
     exponent : float
         Standardization exponent of the first SKF (the paper's setting is the second).
-    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
+    smoother : {"rts-smoothed-weights", None, "rts-standardized", "rts-state"}
         Its smoother.
     standardize : {"position", "column"}
         Its standardization: each source position's three orientations as a whole (the
@@ -222,6 +244,15 @@ def run_demo(
     check_choice("standardize", standardize, STANDARDIZATIONS)
     seed = check_int("seed", seed, minimum=0)
     check_instance("overwrite", overwrite, bool, "True or False")
+    default_tau = time_constant_ms is None or (
+        isinstance(time_constant_ms, str) and time_constant_ms == DEFAULT_TIME_CONSTANT_MS
+    )
+    if ep_snr_db is not None and not default_tau:
+        check_one_evolution_prior(ep_snr_db, time_constant_ms)  # both given: an error
+    if ep_snr_db is not None:
+        tau = None  # the paper's random walk
+    else:  # the AR(1) prior
+        tau = check_time_constant(DEFAULT_TIME_CONSTANT_MS if default_tau else time_constant_ms)
     folder = _output_folder(out, overwrite)
     with verbosity(verbose):
         testing = None if head == "sphere" else find_testing_data(testing_data)
@@ -255,8 +286,10 @@ def run_demo(
         setting = {"exponent": exponent, "smoother": smoother, "standardize": standardize}
         setting["n_orient"] = 3 if standardize == "position" else None  # free orientation
         with progress("SKF and sLORETA"):
-            priors, tuning = _priors(model, sims["present"], pm_snr_db, ep_snr_db)
-            paper_priors = priors if tuning else _priors(model, sims["present"], *_PAPER_PRIORS)[0]
+            present = sims["present"]
+            priors, tuning = _priors(model, present, scenario.sfreq, pm_snr_db, ep_snr_db, tau)
+            shared = tuning is not None and tau is None  # the walk's priors chosen by the data
+            paper_priors = priors if shared else _priors(model, present, None, *_PAPER_PRIORS)[0]
             runs = {"skf": (priors, setting), "paper": (paper_priors, PAPER_SETTING)}
             reconstructions = _skf(model, sims, runs)
             estimates = {key: rec.amplitude(3) for key, rec in reconstructions.items()}
@@ -279,9 +312,19 @@ def run_demo(
             "paper": _label(PAPER_SETTING) + " (paper)",
             "sLORETA": "sLORETA (MNE), λ² = 1/9",
         }
-        settings = _settings(model, sims["present"], setting, priors, tuning, snr_db, seed)
-        settings.update(pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db, positions_requested=n_positions)
-        settings.update(paper_theta0=paper_priors[0], paper_q=paper_priors[1])
+        evolution = "random walk" if tau is None else "ar1"
+        settings = _settings(model, present, setting, evolution, priors, tuning, snr_db, seed)
+        settings.update(
+            sfreq=scenario.sfreq,
+            pm_snr_db=pm_snr_db,
+            ep_snr_db=ep_snr_db,
+            time_constant_ms=tau,
+            positions_requested=n_positions,
+            paper_pm_snr_db=tuning.pm_snr_db if shared else _PAPER_PRIORS[0],
+            paper_ep_snr_db=tuning.ep_snr_db if shared else _PAPER_PRIORS[1],
+            paper_theta0=paper_priors[0],
+            paper_q=paper_priors[1],
+        )
         demo = Demo(model, sims, methods, reconstructions, estimates, table, settings)
         if folder is not None:
             with progress("figures and files"):
@@ -325,35 +368,86 @@ def _label(setting: Mapping[str, Any]) -> str:
 
 
 def _priors(
-    head: HeadModel, sim: Simulation, pm_snr_db: float | str, ep_snr_db: float | str
-) -> tuple[tuple[float, float], TuneResult | None]:
+    head: HeadModel,
+    sim: Simulation,
+    sfreq: float | None,
+    pm_snr_db: Any,
+    ep_snr_db: Any,
+    time_constant_ms: Any = None,
+) -> tuple[_Priors, TuneResult | None]:
+    """theta0, q and the transition: the random walk at ``ep_snr_db``, or the AR(1) prior at
+    ``time_constant_ms`` (at ``sfreq``); any of them ``"auto"`` is chosen by the data.
+
+    A prior chosen on an end of its search range is logged and recorded (the settings'
+    ``tuned_at_bound``), as the evidence study records it, instead of :func:`skf_ref.tune`'s
+    warning to widen the range: the demo runs the default's range as the study's rule does.
+    """
+    import warnings
+
     from ..method._tuning import choose_priors
 
-    theta0, q, _, tuning = choose_priors(  # the random walk: transition 1
-        head.leadfield, sim.Y, noise_std=sim.sigma, pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db
-    )
-    if tuning is not None:
-        logger.info(
-            "priors chosen by the data: PM-SNR %.2f dB, EP-SNR %.2f dB (log-likelihood %.6g)",
-            tuning.pm_snr_db,
-            tuning.ep_snr_db,
-            tuning.log_likelihood,
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "tune: .* lies on the .* bound", UserWarning)
+        theta0, q, transition, tuning = choose_priors(
+            head.leadfield,
+            sim.Y,
+            noise_std=sim.sigma,
+            pm_snr_db=pm_snr_db,
+            ep_snr_db=ep_snr_db,
+            time_constant_ms=time_constant_ms,
+            sfreq=None if time_constant_ms is None else sfreq,
         )
-    return (theta0, q), tuning
+    if tuning is not None:
+        logger.info("priors chosen by the data: %s", _describe_tuning(tuning))
+    return (theta0, q, transition), tuning
+
+
+def _describe_tuning(tuning: TuneResult) -> str:
+    """The priors the data chose, in words: PM-SNR, the EP-SNR or the time constant (with
+    its transition), the ends of their search ranges they lie on, the log-likelihood.
+
+    Parameters
+    ----------
+    tuning : TuneResult
+        What :func:`skf_ref.tune` chose.
+
+    Returns
+    -------
+    str
+    """
+    if tuning.time_constant_ms is None:
+        evolution = f"EP-SNR {tuning.ep_snr_db:.2f} dB"
+    else:
+        evolution = (
+            f"time constant {tuning.time_constant_ms:.3g} ms (transition {tuning.transition:.4f})"
+        )
+    bounds = "".join(
+        f"; {name} on the {end} end of its search range" for name, end in tuning.at_bound.items()
+    )
+    return (
+        f"PM-SNR {tuning.pm_snr_db:.2f} dB, {evolution}{bounds} "
+        f"(log-likelihood {tuning.log_likelihood:.6g})"
+    )
 
 
 def _skf(
     head: HeadModel,
     sims: Mapping[str, Simulation],
-    runs: Mapping[str, tuple[tuple[float, float], Mapping[str, Any]]],
+    runs: Mapping[str, tuple[_Priors, Mapping[str, Any]]],
 ) -> dict[tuple[str, str], Reconstruction]:
     from ..method import reconstruct
 
     out: dict[tuple[str, str], Reconstruction] = {}
-    for key, ((theta0, q), setting) in runs.items():
+    for key, ((theta0, q, transition), setting) in runs.items():
         for data, sim in sims.items():
             rec = reconstruct(
-                head.leadfield, sim.Y, noise_std=sim.sigma, theta0=theta0, q=q, **setting
+                head.leadfield,
+                sim.Y,
+                noise_std=sim.sigma,
+                theta0=theta0,
+                q=q,
+                transition=transition,
+                **setting,
             )
             _ = rec.z, rec.weights  # computed (and checked finite) before any file is written
             out[key, data] = rec
@@ -383,16 +477,24 @@ def _sloreta_method(head: HeadModel, sim: Simulation) -> Callable[[np.ndarray], 
 def _methods(
     head: HeadModel,
     sim: Simulation,
-    runs: Mapping[str, tuple[tuple[float, float], Mapping[str, Any]]],
+    runs: Mapping[str, tuple[_Priors, Mapping[str, Any]]],
     sloreta: Callable[[np.ndarray], np.ndarray],
 ) -> dict[str, Callable[[np.ndarray], np.ndarray]]:
     """The demo's three methods as maps from data to position amplitudes (the priors fixed)."""
     from ..method import reconstruct
 
-    def skf(priors: tuple[float, float], options: Mapping[str, Any]) -> Callable[..., np.ndarray]:
+    def skf(priors: _Priors, options: Mapping[str, Any]) -> Callable[..., np.ndarray]:
+        theta0, q, transition = priors
+
         def method(Y: np.ndarray) -> np.ndarray:
             rec = reconstruct(
-                head.leadfield, Y, noise_std=sim.sigma, theta0=priors[0], q=priors[1], **options
+                head.leadfield,
+                Y,
+                noise_std=sim.sigma,
+                theta0=theta0,
+                q=q,
+                transition=transition,
+                **options,
             )
             return rec.amplitude(3)
 
@@ -425,7 +527,8 @@ def _settings(
     head: HeadModel,
     sim: Simulation,
     setting: Mapping[str, Any],
-    priors: tuple[float, float],
+    evolution: str,
+    priors: _Priors,
     tuning: TuneResult | None,
     snr_db: float,
     seed: int,
@@ -434,9 +537,12 @@ def _settings(
 
     return {
         "snr_db": snr_db,
+        "evolution_prior": evolution,
         "priors_chosen_by_the_data": tuning is not None,
         "tuned_pm_snr_db": None if tuning is None else tuning.pm_snr_db,
         "tuned_ep_snr_db": None if tuning is None else tuning.ep_snr_db,
+        "tuned_time_constant_ms": None if tuning is None else tuning.time_constant_ms,
+        "tuned_at_bound": {} if tuning is None else dict(tuning.at_bound),
         "exponent": setting["exponent"],
         "smoother": setting["smoother"],
         "standardize": setting["standardize"],
@@ -449,6 +555,7 @@ def _settings(
         "sigma": sim.sigma,
         "theta0": priors[0],
         "q": priors[1],
+        "transition": priors[2],
         "head": head.description,
         "head_kind": "realistic" if head.conductor_kind == "bem" else "sphere",
         "conductor": head.conductor_kind,
