@@ -1,11 +1,12 @@
 """Every number the README and the documentation quote from the study comes from the report.
 
-The study that chose the default wrote ``headline.json``: the headline tables (at 20 and 30 dB)
-and every number of the default's verdict. Its report is archived as history
-(``validation/archive/report-v2/``; no code regenerates it) until the live study's
-(``python -m validation.reproduce``, v3) replaces the pages' sections on it. The README's
-section "What the SKF is worth", and the documentation's sections on it, must print those
-tables as written and quote no number the report did not produce.
+The evidence study v3 (``python -m validation.reproduce``) writes
+``validation/report/headline.json``: the tables the pages print (a summary, where a baseline
+beats the default, one table per design) and every number they may quote (the tables' and
+the design's). The README's section "What the SKF is worth", and the documentation's
+sections on it, must print those tables as written and quote no number the report did not
+produce. The retired studies' report (``validation/archive/report-v2/``) is still quoted by
+a few sentences of history, tied below.
 
 Elsewhere the pages quote other committed outputs: the report's other sections, the demo
 (``validation/demo/``), the real recordings (``validation/report/real/``) and the benchmarks
@@ -25,18 +26,16 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-#: The archived report the pages quote (validation/archive/README.md).
-ARCHIVE = ROOT / "validation" / "archive" / "report-v2"
-HEADLINE = ARCHIVE / "headline.json"
-REPORT = ARCHIVE / "REPORT.md"
+HEADLINE = ROOT / "validation" / "report" / "headline.json"
+REPORT = ROOT / "validation" / "report" / "REPORT.md"
 BENCH = ROOT / "validation" / "bench"
 #: (file, the heading of the section that quotes the study, the headline tables it prints;
 #: None: all): the section runs to the next heading of the same or a higher level. The
-#: README, kept short, prints the 20 dB table and links to the others.
+#: README, kept short, prints the summary and links to the others.
 QUOTING = (
-    ("README.md", "## What the SKF is worth", ("20 dB",)),
+    ("README.md", "## What the SKF is worth", ("summary",)),
     ("docs/choosing.md", "## What the SKF is worth", None),
-    ("docs/study.md", "## What the report says", None),
+    ("docs/study.md", "## What the report says", ("summary",)),
 )
 
 

@@ -40,6 +40,17 @@ def main(argv=None):
     return run(root, args.quick, args.jobs, Path(args.out), work)
 
 
+def _invocations(work, start, computed):
+    """The wall time of every invocation that computed cells (``work/timing.json``), summed."""
+    path = work / "timing.json"
+    log = json.loads(path.read_text()) if path.exists() else []
+    log.append(dict(started=time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime(start)),
+                    wall_s=round(time.time() - start), cells_computed=computed))  # fmt: skip
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(json.dumps(log, indent=1) + "\n")
+    return float(sum(entry["wall_s"] for entry in log if entry["cells_computed"] > 0))
+
+
 def run(root, quick, jobs, out, work):
     """The two phases, the rule, and the report in ``out``."""
     from threadpoolctl import threadpool_info
@@ -49,6 +60,7 @@ def run(root, quick, jobs, out, work):
     from .run import phase_a, phase_b, read_cells, save_sources
 
     start, cpu = time.time(), time.process_time()
+    cells_before = len(list((work / "cells").glob("*.csv")))
     save_sources(work, root, quick)
     phase_a(work, root, quick, jobs)
     rows = read_cells(work, "*-a.csv")
@@ -72,10 +84,11 @@ def run(root, quick, jobs, out, work):
     scored_rows = every[every["set"] == "scored"]
     scored = rule.summarize(scored_rows, by=("design", "method"))
     tasks = every.drop_duplicates(["set", "condition", "design", "cpu_s"])["cpu_s"]
+    wall = _invocations(work, start, len(list((work / "cells").glob("*.csv"))) - cells_before)
     blas = [(i.get("internal_api"), i.get("num_threads"), i.get("architecture"))
             for i in threadpool_info()]  # fmt: skip
     meta = dict(
-        minutes=f"{(time.time() - start) / 60:.0f}", wall_s=round(time.time() - start),
+        minutes=f"{wall / 60:.0f}", wall_s=round(wall), invocations=str(work / "timing.json"),
         cpu_s_main=round(time.process_time() - cpu), cpu_s_tasks=round(float(tasks.sum())),
         jobs=jobs, load=os.getloadavg(), machine=platform.processor() or platform.machine(),
         blas=blas, quick=quick, window_tau_ms=tau,

@@ -9,7 +9,8 @@ from .design import DESIGNS, MINIMUM_NORM
 
 #: Lower is better for these; higher for the rest.
 LOWER = ("deep error", "superficial error", "EMD", "latency", "left error", "right error",
-         "lone thalamic error", "lone cortical error")  # fmt: skip
+         "lone thalamic error", "lone cortical error", "lone thalamic EMD",
+         "lone cortical EMD")  # fmt: skip
 #: (metric, margin) per design kind; the latency margin is 10 % of the deep support (ms).
 CRITERIA = {
     "pair": (("deep error", 5.0), ("superficial error", 5.0), ("EMD", 5.0), ("detection", 0.10),
