@@ -100,7 +100,9 @@ def run(root, quick, jobs, out, work):
     choice.to_csv(out / "choice_summary.csv", float_format="%.4g")
     scored.to_csv(out / "scored_summary.csv", float_format="%.4g")
     with atomic_path(out / "rows.csv.gz") as tmp:
-        every.to_csv(tmp, index=False, float_format="%.5g", compression="gzip")
+        every.to_csv(
+            tmp, index=False, float_format="%.5g", compression={"method": "gzip", "mtime": 0}
+        )
     head = write.headline(out / "headline.json", scored_rows, scored, default, met, meta)
     write.report(
         out / "REPORT.md", rows, scored_rows, choice, scored, default, table, meta, head["tables"]

@@ -266,7 +266,7 @@ def headline(path, rows_scored, scored, default, met_choice, meta):
     for text in tables.values():
         numbers |= set(re.findall(r"(?<![\w.])-?\d+(?:\.\d+)?", text))
     out = dict(default=default.label, met_all_on_choice=met_choice, minutes=meta["minutes"],
-               tables=tables, quotable=sorted(numbers, key=float))  # fmt: skip
+               tables=tables, quotable=sorted(numbers, key=lambda n: (float(n), n)))  # fmt: skip
     with atomic_path(path) as tmp:
         Path(tmp).write_text(json.dumps(out, indent=1, sort_keys=True) + "\n")
     return out
