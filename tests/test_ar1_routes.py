@@ -76,29 +76,40 @@ def test_an_operator_with_a_time_constant_is_ar1_priors_on_the_whitened_forward(
     assert (operator.ep_snr_db, operator.time_constant_ms) == (None, 15.0)
     assert "PM-SNR 0 dB, time constant 15 ms>" in repr(operator)
     assert "time constant" in operator._repr_html_()
-    stc, rec = apply_skf(evoked, operator, return_reconstruction=True)
+    stc, rec = apply_skf(evoked, operator, smoother=None, return_reconstruction=True)
     data = operator.select(evoked.info, evoked.data)
     expected = arrays_reconstruction(operator, data, evoked.nave, 15.0)
     assert rec.transition == pytest.approx(np.exp(-2.0 / 15.0), rel=1e-15)
     assert (rec.theta0, rec.q) == (expected.theta0, expected.q)
     assert relative(rec.z, expected.z) <= ROUTE_RTOL
     # the one-call route makes the same operator
-    once = apply_skf(evoked, forward, cov, time_constant_ms=15.0)
+    once = apply_skf(evoked, forward, cov, time_constant_ms=15.0, smoother=None)
     assert relative(once.data, stc.data) <= ROUTE_RTOL  # one SVD each: rounding only
     # an operator of the random walk, the time constant given where it is applied
-    walk = make_skf_operator(evoked.info, forward, cov)
-    given_here = apply_skf(evoked, walk, time_constant_ms=15.0).data
+    walk = make_skf_operator(evoked.info, forward, cov, ep_snr_db=0.0)
+    given_here = apply_skf(evoked, walk, time_constant_ms=15.0, smoother=None).data
     assert relative(given_here, stc.data) <= ROUTE_RTOL
 
 
-def test_the_default_is_still_the_random_walk_at_ep_snr_0_db(sample):
+@pytest.mark.filterwarnings("ignore:tune. time_constant_ms")
+def test_the_default_is_the_ar1_prior_chosen_by_the_data_and_ep_snr_gives_the_walk(sample):
+    # the evidence study v3's rule (validation/report/default.json)
     forward, epochs, cov, _ = sample
     evoked = epochs.average()
     operator = make_skf_operator(evoked.info, forward, cov)
-    assert (operator.ep_snr_db, operator.time_constant_ms) == (0.0, None)
-    assert repr(operator).endswith("PM-SNR and EP-SNR 0 dB, 0 dB>")
+    assert operator.ep_snr_db is None and "time constant" in repr(operator)
     _, rec = apply_skf(evoked, forward, cov, return_reconstruction=True)
-    theta0, q = priors_from_snr(operator.leadfield, 1.0, 0.0, 0.0, n_steps=evoked.data.shape[1])
+    tau = rec.tuning.time_constant_ms
+    assert 1.0 <= tau <= 1000.0
+    dt_ms = 1e3 / evoked.info["sfreq"]
+    assert rec.transition == pytest.approx(np.exp(-dt_ms / tau), rel=1e-12)
+    assert rec.settings["smoother"] == "rts-smoothed-weights"
+    # the 0.4 default, one argument away: the random walk at EP-SNR 0 dB
+    walk = make_skf_operator(evoked.info, forward, cov, ep_snr_db=0.0)
+    assert (walk.ep_snr_db, walk.time_constant_ms) == (0.0, None)
+    assert repr(walk).endswith("PM-SNR and EP-SNR 0 dB, 0 dB>")
+    _, rec = apply_skf(evoked, walk, smoother=None, return_reconstruction=True)
+    theta0, q = priors_from_snr(walk.leadfield, 1.0, 0.0, 0.0, n_steps=evoked.data.shape[1])
     assert (rec.theta0, rec.q, rec.transition) == (theta0, q, 1.0)
 
 
@@ -106,7 +117,7 @@ def test_the_default_is_still_the_random_walk_at_ep_snr_0_db(sample):
 def test_epochs_take_the_time_constant_at_their_sampling_rate(sample):
     forward, epochs, cov, _ = sample
     ar1 = make_skf_operator(epochs.info, forward, cov, time_constant_ms=8.0)
-    walk = make_skf_operator(epochs.info, forward, cov)
+    walk = make_skf_operator(epochs.info, forward, cov, ep_snr_db=0.0)
     by_operator = apply_skf_epochs(epochs[:3], ar1, smoother="rts-state")
     by_call = apply_skf_epochs(epochs[:3], walk, smoother="rts-state", time_constant_ms=8.0)
     for k, (a, b) in enumerate(zip(by_operator, by_call, strict=True)):
@@ -133,7 +144,7 @@ def test_raw_runs_the_ar1_prior_held_and_streamed(sample, tmp_path, smoother):
     store = apply_skf_raw(raw, operator, smoother=smoother, out=tmp_path / "r.zarr")
     assert relative(np.asarray(store["data"][:]), stc.data) <= ROUTE_RTOL
     # the same with the operator's random walk and the time constant given here
-    walk = make_skf_operator(raw.info, forward, cov)
+    walk = make_skf_operator(raw.info, forward, cov, ep_snr_db=0.0)
     again = apply_skf_raw(raw, walk, smoother=smoother, time_constant_ms=10.0)
     assert relative(again.data, stc.data) <= ROUTE_RTOL
 
@@ -141,10 +152,10 @@ def test_raw_runs_the_ar1_prior_held_and_streamed(sample, tmp_path, smoother):
 def test_a_raw_segment_filtered_does_not_depend_on_what_follows(sample):
     forward, _, cov, raw = sample
     ar1 = make_skf_operator(raw.info, forward, cov, time_constant_ms=10.0)
-    walk = make_skf_operator(raw.info, forward, cov)
-    for operator, same in ((ar1, True), (walk, False)):
-        whole = apply_skf_raw(raw, operator, 0, 400).data[:, :200]
-        first = apply_skf_raw(raw, operator, 0, 200).data
+    walk = make_skf_operator(raw.info, forward, cov, ep_snr_db=0.0)
+    for operator, same in ((ar1, True), (walk, False)):  # the filter: no smoother
+        whole = apply_skf_raw(raw, operator, 0, 400, smoother=None).data[:, :200]
+        first = apply_skf_raw(raw, operator, 0, 200, smoother=None).data
         assert (relative(first, whole) <= ROUTE_RTOL) == same
 
 
@@ -211,7 +222,9 @@ def test_the_array_route_takes_the_time_constant_at_sfreq(cli, files, tmp_path):
                  str(tmp_path / "a.npz"), "--quiet")  # fmt: skip
     assert result.returncode == 0, result.stderr
     theta0, q, rho = ar1_priors(L, 1e-6, 0.0, 12.0, 500.0)
-    expected = reconstruct(L, Y, noise_std=1e-6, theta0=theta0, q=q, transition=rho)
+    expected = reconstruct(  # the command line's smoother is the package's default
+        L, Y, noise_std=1e-6, theta0=theta0, q=q, transition=rho, smoother="rts-smoothed-weights"
+    )
     assert relative(np.load(tmp_path / "a.npz")["z"], expected.z) <= ROUTE_RTOL
     settings = json.loads((tmp_path / "a.npz.json").read_text())
     assert (settings["time_constant_ms"], settings["sfreq"], settings["ep_snr_db"]) == (

@@ -94,9 +94,13 @@ def test_priors_searched_over_a_range_from_the_command_line(cli, files, tmp_path
     assert result.returncode == 0, result.stderr
     assert "priors chosen by the data: PM-SNR" in result.stderr
     settings = json.loads((tmp_path / "r.stc.json").read_text())
-    assert settings["priors_searched"] == {"pm_snr_db": [-40.0, 20.0], "ep_snr_db": 0.0}
+    assert settings["priors_searched"] == {
+        "pm_snr_db": [-40.0, 20.0],
+        "ep_snr_db": None,
+        "time_constant_ms": "auto",
+    }  # the default evolution prior: the AR(1) prior, its time constant searched too
     assert -40 <= settings["pm_snr_db"] <= 20
-    assert settings["ep_snr_db"] == 0.0
+    assert settings["ep_snr_db"] is None and 1.0 <= settings["time_constant_ms"] <= 1000.0
 
 
 @pytest.mark.parametrize(

@@ -51,9 +51,10 @@ def test_mne_route_writes_the_estimate_its_settings_and_a_figure(files, tmp_path
     np.testing.assert_allclose(written.data, expected.data, rtol=1e-5)  # .stc is float32
     settings = json.loads((tmp_path / "est.stc.json").read_text())
     assert settings["route"] == "mne" and settings["exponent"] == 0.5
-    assert settings["smoother"] == "none" and "versions" in settings["machine"]
-    # the rule's setting where the forward gives the orientations
-    assert settings["standardize"] == "position" and settings["ep_snr_db"] == 0.0
+    assert settings["smoother"] == "rts-smoothed-weights" and "versions" in settings["machine"]
+    # the rule's setting where the forward gives the orientations and the rate
+    assert settings["standardize"] == "position" and settings["ep_snr_db"] is None
+    assert 1.0 <= settings["time_constant_ms"] <= 1000.0
     assert (tmp_path / "e.png").read_bytes()[:4] == b"\x89PNG"
 
 

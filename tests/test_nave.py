@@ -64,8 +64,12 @@ def _evoked(sphere, nave):
 @pytest.mark.filterwarnings("ignore:tune. pm_snr_db")  # on a bound: the same bound for both
 @pytest.mark.parametrize(
     "settings",
-    [{}, dict(exponent=1.25, smoother="rts-standardized"), dict(pm_snr_db="auto")],
-    ids=["default", "paper", "auto"],
+    [
+        dict(ep_snr_db=0.0, smoother=None),
+        dict(exponent=1.25, smoother="rts-standardized", ep_snr_db=0.0),
+        dict(pm_snr_db="auto", ep_snr_db=0.0),
+    ],
+    ids=["walk", "paper", "auto"],
 )
 def test_nave_k_equals_nave_1_with_the_covariance_over_k(sphere, settings):
     averaged, single = _evoked(sphere, NAVE), _evoked(sphere, 1)
@@ -90,11 +94,13 @@ def test_an_operator_made_once_applies_to_every_nave(sphere):
     # the operator's whitener is that of C; for an average it is sqrt(nave) times it, and
     # scaling the whitened data alone is the model whitened with C / nave
     info, forward, cov = sphere["info"], sphere["forward"], sphere["cov"]
-    operator = make_skf_operator(info, forward, cov, verbose=False)
+    operator = make_skf_operator(info, forward, cov, ep_snr_db=0.0, verbose=False)
     evoked = _evoked(sphere, 1)
     data = operator.select(evoked.info, evoked.data)
     for nave in (1, 4, 30):
-        made_for_k = make_skf_operator(info, forward, _scaled(cov, 1 / nave), verbose=False)
+        made_for_k = make_skf_operator(
+            info, forward, _scaled(cov, 1 / nave), ep_snr_db=0.0, verbose=False
+        )
         np.testing.assert_allclose(
             np.abs(made_for_k.whitener), np.sqrt(nave) * np.abs(operator.whitener), rtol=1e-9
         )  # the same rows up to sign (an eigendecomposition each)

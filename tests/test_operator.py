@@ -64,7 +64,9 @@ def test_an_operator_gives_the_one_call_numbers(problem, operator):
 
 def test_the_svd_and_the_recursion_are_computed_once(problem, monkeypatch):
     setup, epochs, cov = problem
-    operator = make_skf_operator(epochs.info, setup["forward"], cov, verbose=False)
+    # the walk's priors are fixed: one recursion for every epoch (a time constant chosen by
+    # the data, the default, is chosen for each)
+    operator = make_skf_operator(epochs.info, setup["forward"], cov, ep_snr_db=0.0, verbose=False)
     calls = {"svd": 0, "recursion": 0}
 
     def counted(name, function):
@@ -276,8 +278,8 @@ def meg_eeg():
 
 def test_meg_and_eeg_are_whitened_by_type_and_only_eeg_is_referenced(meg_eeg):
     evoked, forward, cov = meg_eeg
-    operator = make_skf_operator(evoked.info, forward, cov, meg=True, verbose=False)
-    stc, rec = apply_skf(evoked, operator, return_reconstruction=True)
+    operator = make_skf_operator(evoked.info, forward, cov, meg=True, ep_snr_db=0.0, verbose=False)
+    stc, rec = apply_skf(evoked, operator, smoother=None, return_reconstruction=True)
     names = operator.ch_names
     meg = [i for i, name in enumerate(names) if name not in operator.eeg_names]
     eeg = [i for i, name in enumerate(names) if name in operator.eeg_names]
@@ -375,11 +377,11 @@ def test_priors_searched_over_a_range(problem):
     setup, epochs, cov = problem
     evoked = epochs.average()
     operator = make_skf_operator(evoked.info, setup["forward"], cov, pm_snr_db=[-40, 20],
-                                 verbose=False)  # fmt: skip
+                                 ep_snr_db=0.0, verbose=False)  # fmt: skip
     assert operator.pm_snr_db == (-40.0, 20.0) and "searched in (-40, 20) dB" in repr(operator)
     stc, rec = apply_skf(evoked, operator, return_reconstruction=True)
     assert -40 <= rec.tuning.pm_snr_db <= 20 and rec.tuning.ep_snr_db == 0.0
-    once = apply_skf(evoked, setup["forward"], cov, pm_snr_db=(-40, 20))
+    once = apply_skf(evoked, setup["forward"], cov, pm_snr_db=(-40, 20), ep_snr_db=0.0)
     assert_same_to_rounding(once.data, stc.data)
     for value, match in [
         ((20, -40), r"pm_snr_db must be a range \(low, high\) with low < high, got \(20, -40\)"),
@@ -405,8 +407,9 @@ def test_an_operator_shows_itself_in_a_notebook(operator):
     assert html.startswith("<table>") and html.endswith("</table>")
     for cell in ("<th", "64 (64 eeg)", ">63<", "free orientation"):
         assert cell in html
-    for prior in ("PM-SNR", "EP-SNR"):  # the defaults, 0 dB each
-        assert f"{prior}</th><td style='text-align:left'>0 dB<" in html
+    # the defaults: PM-SNR 0 dB, the AR(1) prior's time constant chosen by the data
+    assert "PM-SNR</th><td style='text-align:left'>0 dB<" in html
+    assert ">auto<" in html
 
 
 def test_the_default_standardization_is_per_position_with_eeg_and_per_column_for_meg_alone(

@@ -118,8 +118,9 @@ def test_a_time_constant_is_held_in_place_of_the_ep_snr(sample, tmp_path):
     # format 2 for every operator (its digest); the evolution prior is one of the two fields
     forward, epochs, cov = sample
     for settings, field in (
-        (dict(), "ep_snr_db"),
+        (dict(ep_snr_db=0.0), "ep_snr_db"),
         (dict(time_constant_ms=20.0), "time_constant_ms"),
+        (dict(), "time_constant_ms"),  # the default: the AR(1) prior, "auto"
     ):
         operator = make_skf_operator(epochs.info, forward, cov, verbose=False, **settings)
         path = write_skf_operator(tmp_path / f"{field}-skf.h5", operator, overwrite=True)

@@ -174,6 +174,8 @@ def report_tuning(args: argparse.Namespace, tuning: Any) -> None:
         args.time_constant_ms = tuning.time_constant_ms
         evolution = f"time constant {tuning.time_constant_ms:.3g} ms"
     args.tuned = True
+    if getattr(args, "quiet", False):  # the settings file records the choice
+        return
     print(
         f"priors chosen by the data: PM-SNR {tuning.pm_snr_db:.2f} dB, {evolution} "
         f"(log-likelihood {tuning.log_likelihood:.6g})",

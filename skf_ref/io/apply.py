@@ -103,15 +103,15 @@ def apply_skf(
     per-position norm (``pick_ori=None``) or the three components (``"vector"``); fixed
     orientation gives the signed estimate.
 
-    Which setting. The defaults are the setting the study's pre-registered rule chose
-    (validation/archive/report-v2/REPORT.md): exponent 0.5 without smoothing
+    Which setting. The defaults are the setting the evidence study v3's pre-registered rule
+    chose (docs/choosing.md): exponent 0.5 with ``"rts-smoothed-weights"``
     (:data:`skf_ref.RECOMMENDED_SETTING`), each source position standardized as a whole
     (``standardize="position"``, ``n_orient`` from the forward: for a fixed-orientation
     forward it equals the per-column form; with EEG: for MEG alone, whose blocks are
-    singular where the radial orientation is silent, ``"column"``), and priors PM-SNR 0 dB,
-    EP-SNR 0 dB. The
-    paper's form is ``standardize="column"``, and the defaults before 0.4.0 were
-    ``standardize="column"`` with EP-SNR 20 dB (``ep_snr_db=20``). On an MNE sphere
+    singular where the radial orientation is silent, ``"column"``), PM-SNR 0 dB and the
+    AR(1) prior with its time constant chosen by the data. The 0.4 defaults are
+    ``ep_snr_db=0, smoother=None``; the paper's form is ``standardize="column"``, and the
+    defaults before 0.4.0 were ``standardize="column"`` with EP-SNR 20 dB. On an MNE sphere
     forward (12 mm volume grid of 1254 positions, biosemi64; one dipole at a time at 9
     positions from the bottom of the grid to its top, 30 averaged epochs, peak SNR 20 dB,
     EP-SNR 20 dB; ``tests/test_apply.py`` measures this) the peak at the pulse's maximum

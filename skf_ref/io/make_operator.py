@@ -198,7 +198,7 @@ def make_skf_operator(
     >>> operator.dropped
     {'bad': ['Oz']}
     >>> operator  # doctest: +ELLIPSIS
-    <SKFOperator | 31 channels, rank 30, ... positions x 3, PM-SNR and EP-SNR 0 dB, 0 dB>
+    <SKFOperator | 31 channels, rank 30, ... positions x 3, PM-SNR 0 dB, time constant auto>
     """
     mne = optional("mne", "mne", "make_skf_operator")
     from mne.cov import compute_whitener

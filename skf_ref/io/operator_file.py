@@ -229,7 +229,7 @@ def write_skf_operator(fname: str | Path, operator: SKFOperator, overwrite: bool
     >>> fname = pathlib.Path(tempfile.mkdtemp()) / "demo-skf.h5"
     >>> read = read_skf_operator(write_skf_operator(fname, operator))
     >>> read  # doctest: +ELLIPSIS
-    <SKFOperator | 16 channels, rank 15, ... positions x 3, PM-SNR and EP-SNR 0 dB, 0 dB>
+    <SKFOperator | 16 channels, rank 15, ... positions x 3, PM-SNR 0 dB, time constant auto>
     >>> bool(np.array_equal(read.leadfield, operator.leadfield))
     True
     """
