@@ -6,7 +6,10 @@ MNE, in the layout and under the names the pipeline (1.10) gives them: per subje
 session) folder, the evokeds of a task (``sub-01_task-audvis_ave.fif``, conditions by their
 comment, a contrast among them), the forward without the task (``sub-01_fwd.fif``), the
 noise covariance of the baseline (``sub-01_proc-clean_cov.fif``) and its rank
-(``sub-01_proc-clean_rank.json``). The forward is a sphere model of a BioSemi cap.
+(``sub-01_proc-clean_rank.json``). The forward is a sphere model of a BioSemi cap; one
+subject's evokeds lack the average-reference projector, which the pipeline adds before its
+inverse. A slow test writes the sample subject's MEG and EEG the same way (MNE's testing
+dataset: its BEM forward, its noise covariance and the rank MNE computes for it).
 """
 
 import json
@@ -51,7 +54,11 @@ def _write_subject(folder, prefix, forward, info, seed):
     evokeds = [epochs[condition].average() for condition in CONDITIONS]
     contrast = mne.combine_evoked(evokeds, weights=[1, -1])
     contrast.comment = f"{CONDITIONS[0]} - {CONDITIONS[1]}"  # the pipeline's contrast name
-    mne.write_evokeds(folder / f"{prefix}_task-audvis_ave.fif", [*evokeds, contrast])
+    if seed:  # no reference projector: given one, as the pipeline does before its inverse
+        evokeds = [evoked.copy().del_proj() for evoked in (*evokeds, contrast)]
+    else:
+        evokeds.append(contrast)
+    mne.write_evokeds(folder / f"{prefix}_task-audvis_ave.fif", evokeds)
     mne.write_forward_solution(folder / f"{prefix}_fwd.fif", forward)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # few samples: a test's covariance
@@ -222,3 +229,64 @@ def test_the_command_line_refuses_a_bad_root_in_one_line(cli, derivatives, argum
     assert result.returncode == 2
     assert result.stderr.startswith("skf-ref: error: " + message.format(root=derivatives))
     assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
+
+
+@pytest.fixture(scope="module")
+def testing_data():
+    from skf_ref.study.head import find_testing_data
+
+    found = find_testing_data(os.environ.get("SKF_REF_TESTING_DATA"))
+    if found is None:
+        pytest.skip(
+            "MNE's testing dataset was not found (MNE's lookup without downloading, or the "
+            "folder SKF_REF_TESTING_DATA names): this test needs the sample subject"
+        )
+    return found
+
+
+@pytest.mark.slow  # the sample subject's BEM forward
+@pytest.mark.filterwarnings("ignore:the whitener has rank")  # Maxwell filtered: rank 69 of 306
+@pytest.mark.filterwarnings("ignore:The largest eigenvalue")  # MNE's, of the same
+def test_the_sample_subject_s_meg_and_eeg(testing_data, tmp_path):
+    # the pipeline's derivatives of the sample subject's second of MEG (Maxwell filtered)
+    # and EEG (its average-reference projector, as the pipeline's epochs have it): its BEM
+    # and head-to-MRI transform (the pipeline's forward, on a 20 mm volume grid), the noise
+    # covariance of its recording and the rank the pipeline computes from it ("info")
+    raw = mne.io.read_raw_fif(testing_data / "SSS" / "sample_audvis_trunc_raw_sss.fif")
+    raw.load_data(verbose=False)
+    starts = raw.first_samp + np.arange(30, len(raw.times) - 40, 50)
+    events = np.column_stack([starts, np.zeros_like(starts), starts // 50 % 2 + 1])
+    event_id = {"auditory": 1, "visual": 2}
+    epochs = mne.Epochs(raw, events, event_id, tmin=-0.05, tmax=0.1, preload=True, verbose=False)
+    evokeds = [epochs[condition].average() for condition in event_id]
+    folder = tmp_path / "sub-01" / "meg"
+    folder.mkdir(parents=True)
+    mne.write_evokeds(folder / "sub-01_task-audvis_ave.fif", evokeds, verbose=False)
+    subjects = testing_data / "subjects"
+    surfaces = mne.read_bem_surfaces(subjects / "sample" / "bem" / "sample-1280-1280-1280-bem.fif")
+    bem = mne.make_bem_solution(surfaces, verbose=False)
+    src = mne.setup_volume_source_space(
+        "sample", pos=20.0, bem=bem, subjects_dir=subjects, mindist=5.0, verbose=False
+    )
+    trans = testing_data / "MEG" / "sample" / "sample_audvis_trunc-trans.fif"
+    forward = mne.make_forward_solution(raw.info, trans, src, bem, verbose=False)
+    mne.write_forward_solution(folder / "sub-01_fwd.fif", forward, verbose=False)
+    cov = mne.read_cov(testing_data / "MEG" / "sample" / "sample_audvis_trunc-cov.fif")
+    cov.save(folder / "sub-01_proc-clean_cov.fif", verbose=False)
+    rank = mne.compute_rank(cov, rank="info", info=evokeds[0].info, verbose=False)
+    (folder / "sub-01_proc-clean_rank.json").write_text(json.dumps(rank))
+
+    done = skf_ref.apply_skf_bids(tmp_path)
+    names = [f"sub-01_task-audvis_{name}+SKF+hemi.h5" for name in event_id]
+    assert [path.name for path in done["written"]] == names
+    evokeds = mne.read_evokeds(folder / "sub-01_task-audvis_ave.fif", verbose=False)  # float32
+    forward = mne.read_forward_solution(folder / "sub-01_fwd.fif", verbose=False)
+    operator = skf_ref.make_skf_operator(evokeds[0].info, forward, cov, rank=rank, verbose=False)
+    for evoked, path in zip(evokeds, done["written"], strict=True):
+        stc = mne.read_source_estimate(path)
+        assert stc.data.shape == (len(src[0]["vertno"]), len(epochs.times))
+        assert_same_to_rounding(stc.data, skf_ref.apply_skf(evoked, operator).data, what=path.name)
+        record = json.loads(path.with_suffix(".json").read_text())
+        assert record["rank"] == rank and len(record["channels"]["used"]) == 364
+        left_out = {"bad in the noise covariance": ["MEG 2443", "EEG 053"]}
+        assert record["channels"]["left_out"] == left_out
