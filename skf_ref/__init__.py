@@ -14,7 +14,8 @@ The package in layers, each importing only those listed before it:
   its three paths, the result type, the priors and their tuning, the standardization;
 - :mod:`skf_ref.io`: MNE-Python objects and files: :func:`make_skf_operator` and
   :func:`apply_skf` (evoked), :func:`apply_skf_epochs`, :func:`apply_skf_raw`, source estimates,
-  readers and writers, outputs larger than memory (MNE, zarr and Dask are optional);
+  readers and writers, MNE-BIDS-pipeline's derivatives (:func:`apply_skf_bids`), outputs
+  larger than memory (MNE, zarr and Dask are optional);
 - :mod:`skf_ref.conformance`: cross-checking another implementation: the cases,
   :func:`compare` and the catalogue of known mistakes;
 - :mod:`skf_ref.datasets`: real median-nerve SEP recordings as MNE objects (evoked, forward,
@@ -52,6 +53,7 @@ _HOMES = {
     "apply_skf": "io",
     "apply_skf_epochs": "io",
     "apply_skf_raw": "io",
+    "apply_skf_bids": "io",
     "make_skf_operator": "io",
     "read_skf_operator": "io",
     "read_skf_stream": "io",

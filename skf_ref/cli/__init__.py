@@ -38,7 +38,7 @@ def build_parser() -> "argparse.ArgumentParser":
         With a subcommand per command (``args.run(args)`` runs it).
     """
     from ..version import __version__
-    from . import compare, conformance, demo, reconstruct, sweep, sys_info
+    from . import bids, compare, conformance, demo, reconstruct, sweep, sys_info
     from ._args import Parser
 
     parser = Parser(
@@ -54,6 +54,7 @@ def build_parser() -> "argparse.ArgumentParser":
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     demo.add_parser(subparsers)
     reconstruct.add_parser(subparsers)
+    bids.add_parser(subparsers)
     sweep.add_parser(subparsers)
     conformance.add_parser(subparsers)
     compare.add_parser(subparsers)

@@ -5,7 +5,8 @@
   :mod:`.operator`: :class:`SKFOperator`, what it prepared, applied;
 - :mod:`.apply`: :func:`apply_skf` on an ``mne.Evoked`` (with an operator, or a forward and
   a noise covariance in one call) and :func:`apply_skf_epochs`; :mod:`.raw`:
-  :func:`apply_skf_raw` along a continuous recording;
+  :func:`apply_skf_raw` along a continuous recording; :mod:`.bids`: :func:`apply_skf_bids`,
+  an estimate beside each evoked of MNE-BIDS-pipeline's derivatives;
 - :mod:`.channels` and :mod:`.noise_cov`: the channels an operator uses, their reference,
   and the noise covariance it whitens with;
 - :mod:`.operator_file`: operators saved and read (:func:`write_skf_operator`,
@@ -40,6 +41,7 @@ _HOMES = {
     "apply_skf": "apply",
     "apply_skf_epochs": "apply",
     "apply_skf_raw": "raw",
+    "apply_skf_bids": "bids",
     "baseline_covariance": "noise_cov",
     "make_stc": "stc",
     "stc_to_zarr": "zarr_dask",

@@ -20,8 +20,10 @@ import numpy as np
 from .._utils.checks import InputError, InputTypeError, check_choice, check_instance, describe
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
+from .._utils.parallel import HERE, check_n_jobs, plan_jobs
 from ..method._search import check_time_constant
 from ..method._units import units_cause, units_mismatch, warn_units
+from ._jobs import epochs_in_jobs
 from .make_operator import make_skf_operator
 from .noise_cov import baseline_covariance
 from .operator import SKFOperator
@@ -245,6 +247,7 @@ def apply_skf_epochs(
     nave: float = 1,
     time_constant_ms: Any = None,
     return_generator: bool = False,
+    n_jobs: int | None = None,
     verbose: bool | str | int | None = None,
 ) -> list[Any] | Iterator[Any]:
     """The SKF on each epoch, as MNE's ``apply_inverse_epochs``.
@@ -277,6 +280,13 @@ def apply_skf_epochs(
         Default None: the operator's.
     return_generator : bool
         Return a generator that computes an estimate when asked for, not a list.
+    n_jobs : int or None
+        Jobs the epochs are shared among (MNE's convention), each job one run of
+        consecutive epochs and the operator sent to it once: 1 in this process, -1 every
+        core; None (default) in this process unless a ``joblib.parallel_config`` is
+        active (``with joblib.parallel_config(backend="dask")``: on a Dask cluster). The
+        estimates equal those in this process to rounding. A generator computes its
+        estimates here: ``return_generator=True`` takes ``n_jobs`` None or 1.
     verbose : bool or str or int, optional
 
     Returns
@@ -291,6 +301,13 @@ def apply_skf_epochs(
     operator.check_pick_ori(pick_ori)
     if not isinstance(return_generator, bool):
         raise InputTypeError(f"return_generator must be a bool, got {describe(return_generator)}")
+    n_jobs = check_n_jobs(n_jobs)
+    if return_generator and n_jobs not in (None, 1):
+        raise InputError(
+            f"n_jobs={n_jobs} shares the epochs among jobs, each returning its estimates "
+            "whole, which a generator (return_generator=True) computes one at a time when "
+            "asked for: give one of them"
+        )
     if time_constant_ms is not None:  # refused now, not at the first epoch
         time_constant_ms = check_time_constant(time_constant_ms)
     settings: dict[str, Any] = dict(
@@ -300,12 +317,20 @@ def apply_skf_epochs(
     tmin, tstep = float(epochs.times[0]), 1.0 / epochs.info["sfreq"]
     with verbosity(verbose):
         check = operator.check_info(epochs.info, "epochs")
+    jobs = HERE if return_generator else plan_jobs(n_jobs, "apply_skf_epochs")
+
+    def selected() -> Iterator[Any]:
+        for k, epoch in enumerate(epochs):
+            yield operator.select(epochs.info, epoch, f"epochs[{k}]", check=check)
 
     def estimates() -> Iterator[Any]:
         with verbosity(verbose):
-            for k, epoch in enumerate(epochs):
-                data = operator.select(epochs.info, epoch, f"epochs[{k}]", check=check)
+            for data in selected():
                 rec = operator.reconstruct(data, **settings)
                 yield operator.to_stc(rec, tmin, tstep, pick_ori)
 
-    return estimates() if return_generator else list(estimates())
+    if return_generator or jobs.local:
+        return estimates() if return_generator else list(estimates())
+    with verbosity(verbose):
+        data = list(selected())  # read and checked here, as in this process
+    return epochs_in_jobs(data, operator, settings, (tmin, tstep), pick_ori, jobs, verbose)

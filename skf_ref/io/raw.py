@@ -24,8 +24,10 @@ from .._utils.checks import (
 )
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
+from .._utils.parallel import check_n_jobs, plan_jobs
 from ..method._search import check_time_constant
 from ..method._units import units_cause, units_mismatch, warn_units
+from ._jobs import rows_in_jobs
 from .operator import SKFOperator
 
 __all__ = ["apply_skf_raw"]
@@ -48,6 +50,7 @@ def apply_skf_raw(
     return_reconstruction: bool = False,
     reject_by_annotation: bool = True,
     time_constant_ms: Any = None,
+    n_jobs: int | None = None,
     verbose: bool | str | int | None = None,
 ) -> Any:
     """The SKF along a continuous recording, as MNE's ``apply_inverse_raw``.
@@ -103,6 +106,18 @@ def apply_skf_raw(
         evolution prior, the sampling step from the recording's ``info["sfreq"]``
         (:meth:`skf_ref.SKFOperator.reconstruct`; ``"auto"`` is chosen on the samples from
         ``start`` to ``stop``). Default None: the operator's.
+    n_jobs : int or None
+        Jobs the rows of the estimate are shared among (MNE's convention: 1 in this
+        process, -1 every core; None, the default, in this process unless a
+        ``joblib.parallel_config`` is active, e.g. ``backend="dask"``: on a Dask
+        cluster). The recording is one sequence and is not cut in time: the filter runs
+        here, and the jobs compute the standardization and the sources, each a run of
+        whole positions, from its r x T quantities (sent to each job once): the n x T part
+        of the work, on the spectral path (the others compute everything at once). With
+        ``out``, each job writes its own rows to the store (the jobs must see this
+        machine's files: a Dask cluster on a shared disk). This process already runs
+        those rows on every core (threads); jobs bring more cores, on a cluster. The
+        estimate equals that of one job to rounding.
     verbose : bool or str or int, optional
 
     Returns
@@ -119,6 +134,7 @@ def apply_skf_raw(
     operator.check_pick_ori(pick_ori)
     memory_limit = check_memory_limit(memory_limit)
     check_instance("reject_by_annotation", reject_by_annotation, bool, "True or False")
+    n_jobs = check_n_jobs(n_jobs)
     if time_constant_ms is not None:  # refused before the recording is read
         time_constant_ms = check_time_constant(time_constant_ms)
     start = check_int("start", start, minimum=0, maximum=raw.n_times - 1)
@@ -165,10 +181,13 @@ def apply_skf_raw(
             )
         tmin, tstep = float(raw.times[start]), 1.0 / raw.info["sfreq"]
         if out is None:
+            rows_in_jobs(rec, operator.n_components, plan_jobs(n_jobs, "apply_skf_raw"))
             result = operator.to_stc(rec, tmin, tstep, pick_ori)
         else:
             src = operator.forward["src"]
-            result = stc_to_zarr(rec, src, out, tmin, tstep, pick_ori, overwrite=overwrite)
+            result = stc_to_zarr(
+                rec, src, out, tmin, tstep, pick_ori, overwrite=overwrite, n_jobs=n_jobs
+            )
     return (result, rec) if return_reconstruction else result
 
 

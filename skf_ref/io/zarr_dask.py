@@ -34,6 +34,7 @@ from .._utils.checks import (
     describe,
 )
 from .._utils.extras import optional
+from .._utils.parallel import plan_jobs, run_jobs
 from ..method import Reconstruction, amplitude_from_components
 from ..method._outputs import ARRAYS as NAMES
 from .stc import stc_layout
@@ -316,6 +317,7 @@ def stc_to_zarr(
     tstep: float,
     pick_ori: str | None = None,
     overwrite: bool = False,
+    n_jobs: int | None = None,
 ) -> Any:
     """Write what :func:`skf_ref.io.make_stc` would hold to a zarr store, block by block.
 
@@ -333,6 +335,12 @@ def stc_to_zarr(
     pick_ori : {None, "vector"}
     overwrite : bool
         Replace a store this package wrote at ``path``.
+    n_jobs : int or None
+        Jobs the rows are shared among, as MNE takes it (1: this process; None, the
+        default: this process unless a ``joblib.parallel_config`` is active), each a run
+        of whole shards that it computes and writes to the store itself: the jobs must
+        see this machine's files. Used when the outputs are computed on demand (the
+        spectral path); the store holds the same numbers to rounding.
 
     Returns
     -------
@@ -361,16 +369,7 @@ def stc_to_zarr(
         "stc_class": layout.class_name,
     }
 
-    def rows(blocks):
-        for where, block in blocks:
-            positions = slice(where.start // k, where.stop // k)
-            if pick_ori == "vector":
-                yield positions, block.reshape(-1, 3, T)
-            elif k == 3:
-                yield positions, amplitude_from_components(block, 3)
-            else:
-                yield positions, block
-
+    jobs = plan_jobs(n_jobs, "stc_to_zarr")
     # one shard (one file) per block of rows, cut in time into chunks of about
     # TIME_CHUNK_BYTES: a span of time is read without reading the rest (read_skf_stream)
     per_sample = step // k * int(np.prod(shape[1:-1]))  # values of one sample in a shard
@@ -381,8 +380,45 @@ def stc_to_zarr(
         array = group.create_array(
             "data", shape=shape, chunks=chunks, shards=shards, dtype="f8", **_checked_chunks()
         )
-        _write_behind(rows(reconstruction.blocks("z", rows=step)), array.__setitem__)
+        if jobs.local or reconstruction.lazy_outputs is None or reconstruction.computed("z"):
+            blocks = reconstruction.blocks("z", rows=step)
+            rows = (_stc_rows(where, block, k, pick_ori) for where, block in blocks)
+            _write_behind(rows, array.__setitem__)
+        else:
+            _write_in_jobs(reconstruction, array, step, k, pick_ori, jobs)
     return zarr.open_group(path, mode="r")
+
+
+def _stc_rows(where: slice, block: Any, k: int, pick_ori: str | None) -> tuple[slice, Any]:
+    """Rows ``where`` of ``z`` as the rows of positions of a source estimate's array."""
+    positions = slice(where.start // k, where.stop // k)
+    if pick_ori == "vector":
+        return positions, block.reshape(-1, 3, block.shape[-1])
+    if k == 3:
+        return positions, amplitude_from_components(block, 3)
+    return positions, block
+
+
+def _write_part(reconstruction, array, blocks, shared, k, pick_ori):
+    """One job's shards: each block of rows computed, then written to the store."""
+    for where in blocks:
+        positions, rows = _stc_rows(where, reconstruction._block("z", where, shared), k, pick_ori)
+        array[positions] = rows
+
+
+def _write_in_jobs(reconstruction, array, step, k, pick_ori, jobs):
+    """Every shard of ``array`` (``step`` rows of ``z`` each) computed and written by the
+    jobs, one run of consecutive shards per job; the paper's smoother's correction, which
+    every block needs, computed here once."""
+    n = reconstruction.n_sources
+    shards = [slice(start, min(start + step, n)) for start in range(0, n, step)]
+    shared = reconstruction._shared("z")
+    parts = [p for p in np.array_split(np.arange(len(shards)), jobs.count) if len(p)]
+    calls = [
+        (reconstruction, array, [shards[i] for i in part], shared, k, pick_ori) for part in parts
+    ]
+    for _ in run_jobs(_write_part, calls, jobs):
+        pass
 
 
 def _checked_chunks() -> dict[str, Any]:

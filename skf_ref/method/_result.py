@@ -317,6 +317,31 @@ class Reconstruction:
             where = slice(start, min(start + step, self.n_sources))
             yield where, array[where]
 
+    def _shared(self, name: str) -> Any:
+        """What every block of rows of output ``name`` needs of the others (the paper's
+        smoother's correction, one pass over every row), or None: computed once, for blocks
+        computed apart (:meth:`_block`)."""
+        if self._lazy is None or self.computed(name):
+            return None
+        outputs = self._lazy
+        return outputs.combine(name, [outputs.share(name, slice(0, self.n_sources))])
+
+    def _block(self, name: str, rows: slice, shared: Any = None) -> NDArray[np.float64]:
+        """Rows ``rows`` of output ``name``, (n_rows, n_times), checked as :meth:`blocks`
+        checks them; ``shared`` is :meth:`_shared`'s answer. Jobs elsewhere (a process, a
+        Dask worker) each compute their own rows from a copy of this reconstruction."""
+        if self._lazy is None or self.computed(name):
+            return self._array(name)[rows]
+        return self._checked(name, self._lazy.block(name, rows, shared))
+
+    def _hold(self, name: str, value: NDArray[np.float64]) -> None:
+        """Keep ``value`` as output ``name``, computed elsewhere (by jobs, block by block,
+        each block checked there)."""
+        check_choice("name", name, ARRAYS)
+        if value.shape != (self.n_sources, self.n_times):
+            raise InputError(f"{name} must have shape {self.shape}, got {value.shape}")
+        self._arrays[name] = readonly(value)
+
     def _checked(self, name: str, value: NDArray[np.float64]) -> NDArray[np.float64]:
         """``value`` (an output or a block of its rows), refused unless finite, NaN allowed
         only where a standardized output is undefined (the missing steps)."""

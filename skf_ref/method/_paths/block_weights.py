@@ -100,6 +100,17 @@ class BlockStandardization:
         self._order = np.argsort(-self._held_from, kind="stable")
         self._held_from = self._held_from[self._order]
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Sent to a job in another process (``skf_ref.io._jobs``) without the workers'
+        kept products, which are this process's threads'."""
+        state = self.__dict__.copy()
+        del state["_pairs"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._pairs = threading.local()
+
     @property
     def held(self) -> bool:
         """bool : Whether the recording reaches the steady state."""

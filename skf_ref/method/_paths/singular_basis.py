@@ -52,9 +52,19 @@ def whitener(R: NDArray[np.float64]) -> tuple[Callable[[Any], NDArray[np.float64
     log_det_C : float
     """
     C = linalg.cholesky(R, lower=True)
+    # functions of this module, not lambdas nor scipy's wrappers: a basis is sent to jobs
+    # in other processes (skf_ref.io._jobs), which unpickle it
     if np.array_equal(C, C[0, 0] * np.eye(len(C))):
-        return (lambda M: M / C[0, 0]), len(C) * np.log(C[0, 0])
-    return functools.partial(linalg.solve_triangular, C, lower=True), np.sum(np.log(np.diag(C)))
+        return functools.partial(_divided, float(C[0, 0])), len(C) * np.log(C[0, 0])
+    return functools.partial(_solved, C), np.sum(np.log(np.diag(C)))
+
+
+def _divided(c: float, M: Any) -> NDArray[np.float64]:
+    return M / c
+
+
+def _solved(C: NDArray[np.float64], M: Any) -> NDArray[np.float64]:
+    return linalg.solve_triangular(C, M, lower=True)
 
 
 def thin_svd(
