@@ -380,8 +380,9 @@ def apply_skf_bids(
     noise_cov: str | None = None,
     pm_snr_db: Any = None,
     ep_snr_db: Any = None,
+    time_constant_ms: Any = None,
     exponent: float = 0.5,
-    smoother: str | None = None,
+    smoother: str | None = "rts-smoothed-weights",
     standardize: str | None = None,
     pick_ori: str | None = None,
     n_jobs: int | None = None,
@@ -419,9 +420,12 @@ def apply_skf_bids(
         ``"proc-clean"`` (the baseline's) or ``"task-noise"`` (the empty room's).
     pm_snr_db, ep_snr_db : float or "auto" or (float, float), optional
         The priors, as :func:`skf_ref.make_skf_operator` takes them; default its own.
+    time_constant_ms : float or "auto" or (float, float), optional
+        The AR(1) prior's time constant, as :func:`skf_ref.make_skf_operator` takes it;
+        default its own (``"auto"`` unless ``ep_snr_db`` is given).
     exponent : float
         As :func:`skf_ref.apply_skf`.
-    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
+    smoother : {"rts-smoothed-weights", None, "rts-standardized", "rts-state"}
         As :func:`skf_ref.apply_skf`.
     standardize : {"column", "position"}, optional
         As :func:`skf_ref.apply_skf`.
@@ -461,7 +465,11 @@ def apply_skf_bids(
     with verbosity(verbose):
         folders = find_derivatives(root, subjects, noise_cov)
     operator_settings = {
-        k: v for k, v in dict(pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db).items() if v is not None
+        k: v
+        for k, v in dict(
+            pm_snr_db=pm_snr_db, ep_snr_db=ep_snr_db, time_constant_ms=time_constant_ms
+        ).items()
+        if v is not None
     }
     settings = dict(exponent=exponent, smoother=smoother, standardize=standardize)
     settings["pick_ori"] = pick_ori
