@@ -166,6 +166,7 @@ def test_an_interrupted_run_resumes_without_redoing_the_first_subject(derivative
     assert _mtimes(first) == first
 
 
+@pytest.mark.slow  # two worker processes started: CI runs it with the slow tests
 def test_two_jobs_write_what_one_writes(pristine, tmp_path):
     roots = []
     for n_jobs in (1, 2):

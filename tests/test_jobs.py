@@ -43,6 +43,7 @@ def _same(many, one, what):
         assert_same_to_rounding(a.data, b.data, what=f"{what}, epoch {k}")
 
 
+@pytest.mark.slow  # two worker processes started: CI runs it with the slow tests
 def test_epochs_give_the_same_estimates_for_any_n_jobs(setup):
     epochs, operator = setup["epochs"], setup["operator"]
     one = skf_ref.apply_skf_epochs(epochs, operator, n_jobs=1, pick_ori="vector")

@@ -15,6 +15,9 @@ from rounding import same_printout
 from test_model_doc import _examples
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "mne.md"
+#: The page's examples run a recording and MEG with priors chosen by the data (the default):
+#: about a minute, so CI runs them with the slow tests, not the README's test run.
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")

@@ -419,7 +419,8 @@ def test_the_default_standardization_is_per_position_with_eeg_and_per_column_for
     # blocks are singular, and the study that chose "position" measured EEG only
     evoked, forward, cov = meg_eeg
     # (test_the_types_come_from_the_data runs an MEG-only evoked through it, off the axes)
-    with_eeg = make_skf_operator(evoked.info, forward, cov, verbose=False)
+    # fixed priors: the standardization is the subject, not the time constant's search
+    with_eeg = make_skf_operator(evoked.info, forward, cov, ep_snr_db=0.0, verbose=False)
     assert with_eeg.default_standardize == "position"
     meg_alone = copy.copy(with_eeg)
     meg_alone.eeg_names = []
