@@ -114,6 +114,7 @@ def test_data_referenced_without_a_projector_are_given_one(problem):
     )
 
 
+@pytest.mark.slow  # over 10 s: CI runs it with the slow tests
 def test_fixed_orientation_localizes_a_noise_free_source_exactly(mne_setup):
     # sLORETA's property (docs/model.md §2), one column per position: with T = 1 and
     # P_{1|0} = theta0 + q times I, |z_i| <= sqrt(Res_jj) for the true column j

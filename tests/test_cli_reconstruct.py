@@ -40,6 +40,7 @@ def files(tmp_path_factory, mne_setup):
     return folder
 
 
+@pytest.mark.slow  # over 10 s: CI runs it with the slow tests
 def test_mne_route_writes_the_estimate_its_settings_and_a_figure(files, tmp_path):
     out = tmp_path / "est.stc"
     arguments = ["reconstruct", "--forward", str(files / "f-fwd.fif"), "--evoked"]

@@ -266,6 +266,7 @@ def test_mne_s_forward_model_is_the_lead_field(a0206, forward):
     np.testing.assert_allclose(simulated.data, forward["sol"]["data"] @ amplitudes, rtol=1e-12)
 
 
+@pytest.mark.slow  # over 10 s: CI runs it with the slow tests
 def test_mne_s_inverses_and_the_skf_accept_the_forward(a0206, forward):
     from mne.minimum_norm import apply_inverse, make_inverse_operator
 
@@ -312,6 +313,7 @@ def _same_as_of_the_average(stc, evoked, forward, cov):
 # --- the noise covariance of an average ------------------------------------------------------
 
 
+@pytest.mark.slow  # over 10 s: CI runs it with the slow tests
 def test_the_covariance_is_nave_times_the_baseline_s_and_nave_cancels(a0206, forward):
     from mne.minimum_norm import apply_inverse, make_inverse_operator
 

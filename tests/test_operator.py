@@ -276,6 +276,7 @@ def meg_eeg():
     return evoked.set_eeg_reference("average", verbose=False), forward, cov
 
 
+@pytest.mark.slow  # over 10 s: CI runs it with the slow tests
 def test_meg_and_eeg_are_whitened_by_type_and_only_eeg_is_referenced(meg_eeg):
     evoked, forward, cov = meg_eeg
     operator = make_skf_operator(evoked.info, forward, cov, meg=True, ep_snr_db=0.0, verbose=False)
