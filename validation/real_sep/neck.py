@@ -88,32 +88,49 @@ def _surface(positions, triangles):
     return np.vstack([(1 - u - v) * a + u * b + v * c for u, v in weights])
 
 
-def register(template_points, surface):
-    """Scale and translation taking the template's points onto the surface (trimmed ICP).
-
-    Starts from the two algebraic spheres (centres matched, radii's ratio), then alternates
-    nearest surface points (pairs farther than :data:`TRIM` left out) and the least-squares
-    scale and translation for the pairs. Returns ``(scale, translation, rms, kept)``.
-    """
-    tree = cKDTree(surface)
-    (cs, rs), (ct, rt) = _sphere(surface), _sphere(template_points)
-    scale, shift = rs / rt, cs - rs / rt * ct
-    for _ in range(ITERATIONS):
-        distance, nearest = tree.query(scale * template_points + shift)
-        keep = distance < TRIM
-        P, Q = template_points[keep], surface[nearest[keep]]
+def _similarity(P, Q, rotate):
+    """Least-squares ``Q ~ scale R P + shift``: R the identity unless ``rotate`` (Umeyama)."""
+    if not rotate:
         A = np.zeros((3 * len(P), 4))
         A[:, 0] = P.ravel()
         for axis in range(3):
             A[axis::3, 1 + axis] = 1.0
         solution = np.linalg.lstsq(A, Q.ravel(), rcond=None)[0]
-        scale, shift = float(solution[0]), solution[1:]
-    distance, _ = tree.query(scale * template_points + shift)
-    keep = distance < TRIM
-    return scale, shift, float(np.sqrt((distance[keep] ** 2).mean())), int(keep.sum())
+        return float(solution[0]), np.eye(3), solution[1:]
+    mp, mq = P.mean(axis=0), Q.mean(axis=0)
+    U, S, Vt = np.linalg.svd((Q - mq).T @ (P - mp))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
+    R = U @ D @ Vt
+    scale = float(np.trace(np.diag(S) @ D) / ((P - mp) ** 2).sum())
+    return scale, R, mq - scale * R @ mp
 
 
-def neck_rows(evoked, triangles):
+def register(template_points, surface, *, trim=TRIM, rotate=False):
+    """Scale and translation taking the template's points onto the surface (trimmed ICP).
+
+    Starts from the two algebraic spheres (centres matched, radii's ratio), then alternates
+    nearest surface points (pairs farther than ``trim`` left out) and the least-squares
+    scale and translation for the pairs (and a rotation, with ``rotate``: the rule's
+    sensitivity only). Returns ``(transform, rms, kept)``, ``transform(points)`` the
+    registered points.
+    """
+    tree = cKDTree(surface)
+    (cs, rs), (ct, rt) = _sphere(surface), _sphere(template_points)
+    scale, R, shift = rs / rt, np.eye(3), cs - rs / rt * ct
+
+    def transform(points):
+        return scale * np.asarray(points) @ R.T + shift
+
+    for _ in range(ITERATIONS):
+        distance, nearest = tree.query(transform(template_points))
+        keep = distance < trim
+        scale, R, shift = _similarity(template_points[keep], surface[nearest[keep]], rotate)
+    distance, _ = tree.query(transform(template_points))
+    keep = distance < trim
+    return transform, float(np.sqrt((distance[keep] ** 2).mean())), int(keep.sum())
+
+
+def neck_rows(evoked, triangles, *, trim=TRIM, rotate=False):
     """The cap's electrodes below the plane through the registered inion and preauriculars.
 
     Parameters
@@ -123,6 +140,9 @@ def neck_rows(evoked, triangles):
     triangles : ndarray of int, shape (n_triangles, 3)
         The cap's triangulation, indices into the evoked's channels (spharapy's
         ``trilist``).
+    trim, rotate
+        The rule's registration (:data:`TRIM`, no rotation); :data:`VARIANTS` holds the
+        others its sensitivity is checked with.
 
     Returns
     -------
@@ -132,11 +152,13 @@ def neck_rows(evoked, triangles):
     template = _template()
     names = list(template["ch_pos"])
     points = np.array([template["ch_pos"][name] for name in names])
-    scale, shift, rms, kept = register(points, _surface(positions, np.asarray(triangles)))
-    landmarks = {
-        key: scale * np.asarray(template[key]) + shift for key in ("nasion", "lpa", "rpa")
-    }
-    landmarks["inion"] = scale * points[names.index("Iz")] + shift
+    surface = _surface(positions, np.asarray(triangles))
+    transform, rms, kept = register(points, surface, trim=trim, rotate=rotate)
+    landmarks = {key: transform(template[key]) for key in ("nasion", "lpa", "rpa")}
+    landmarks["inion"] = transform(points[names.index("Iz")])
+    scale = float(np.linalg.norm(transform(points[1]) - transform(points[0]))) / float(
+        np.linalg.norm(points[1] - points[0])
+    )
     inion = landmarks["inion"]
     normal = np.cross(landmarks["lpa"] - inion, landmarks["rpa"] - inion)
     normal /= np.linalg.norm(normal) * np.sign(normal[2])
@@ -150,6 +172,11 @@ def neck_rows(evoked, triangles):
         rms=rms,
         kept=kept,
     )
+
+
+#: The rule's two neighbours, written into the rule as its known uncertainty and run after
+#: it (observations, not the rule): trimming at 5 mm, and a registration that may turn.
+VARIANTS = {"trim 5 mm": dict(trim=0.005), "rotation allowed": dict(rotate=True)}
 
 
 def sep256_triangles():
