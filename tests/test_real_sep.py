@@ -163,3 +163,105 @@ def test_the_criteria_come_before_what_cannot_be_known():
     assert unknowns.startswith("### What cannot be known here")
     for check in ("N20 left", "N20 central", "N20 cortical", "P14 deep", "P16 deep"):
         assert check in text
+
+
+def test_every_candidate_runs_with_every_dynamics():
+    rows = {name: params for name, _, params in settings.settings()}
+    for candidate in settings.CANDIDATES:
+        for priors in (*settings.SKF_PRIORS, *settings.AR1_PRIORS):
+            params = rows[f"SKF {candidate}, {priors}"]
+            assert params["exponent"] == 0.5
+            assert ("time_constant_ms" in params) != ("ep_snr_db" in params)
+            assert params["priors"] == ("data" if priors in settings.BY_DATA else "fixed")
+    assert rows["SKF position, PM0/ARauto"]["time_constant_ms"] == "auto"
+    assert rows["SKF position, PM0/ARauto"]["pm_snr_db"] == 0.0
+    # the earlier rows are kept as they were
+    assert (
+        rows["SKF paper, auto"]["exponent"] == 1.25
+        and "time_constant_ms" not in rows["SKF paper, auto"]
+    )
+
+
+def test_the_skf_note_says_which_evolution_prior():
+    from types import SimpleNamespace
+
+    assert methods._skf_note(dict(pm_snr_db=0.0, ep_snr_db=20.0), None) == "PM 0.0 / EP 20.0 dB"
+    assert methods._skf_note(dict(pm_snr_db=0.0, time_constant_ms=30.0), None) == (
+        "PM 0.0 dB / tau 30 ms"
+    )
+    chosen = SimpleNamespace(
+        pm_snr_db=0.0,
+        ep_snr_db=None,
+        time_constant_ms=1000.0,
+        at_bound={"time_constant_ms": "upper"},
+    )
+    note = methods._skf_note(dict(pm_snr_db=0.0, time_constant_ms="auto"), chosen)
+    assert note == "PM 0.0 dB / tau 1e+03 ms (time_constant_ms at its upper bound)"
+
+
+def test_the_candidates_table_marks_a_left_central_n20():
+    rows = []
+    for setting in report.CANDIDATE_NAMES:
+        for priors in report.DYNAMICS:
+            n20 = setting == "position" and priors == "PM0/ARauto"
+            rows.append(
+                dict(
+                    setting=f"SKF {setting}, {priors}",
+                    checks_met=3 if n20 else 1,
+                    N20_to_central_mm=0.0 if n20 else 40.0,
+                    check_N20_left=True,
+                    check_N20_central=n20,
+                    check_N20_cortical=True,
+                )
+            )
+    table = report.candidates_table(pd.DataFrame(rows))
+    assert table.count("**") == 2 and "**3/5, 0 mm**" in table
+    assert len(table.splitlines()) == 2 + len(report.CANDIDATE_NAMES)
+
+
+def test_the_neck_rows_are_the_ones_the_rule_names():
+    """The rule's text (criteria.NECK_RULE, committed before the run that used it) names
+    the rows the code drops."""
+    pytest.importorskip("spharapy", reason="the 256-channel SEP ships in spharapy")
+    import re
+
+    from skf_ref.datasets import load_sep256_evoked
+    from validation.real_sep import neck
+
+    evoked = load_sep256_evoked()
+    rows = neck.neck_rows(evoked, neck.sep256_triangles())
+    listed = re.search(r"35 electrodes below the plane: (.*?)\. 29", criteria.NECK_RULE, re.S)
+    assert rows.names == [name.strip() for name in listed.group(1).split(",")]
+    assert rows.scale == pytest.approx(0.935, abs=5e-4) and rows.kept == 331
+    positions = np.array([ch["loc"][:3] for ch in evoked.info["chs"]])
+    # below the plane: lower than every electrode kept at the back, none on the crown
+    assert positions[rows.below, 2].max() < 0.035 < positions[~rows.below, 2].max()
+    behind = positions[rows.below, 1] < rows.landmarks["lpa"][1]
+    assert behind.sum() == 29
+
+
+def test_the_variants_table_sets_the_rule_beside_its_neighbours():
+    def row(recording, setting, met, mm, central):
+        return dict(
+            recording=recording,
+            setting=setting,
+            checks_met=met,
+            N20_to_central_mm=mm,
+            check_N20_left=True,
+            check_N20_central=central,
+            check_N20_cortical=True,
+            rows=39 if recording == "trim 5 mm" else 33,
+        )
+
+    rule = pd.DataFrame([row("sep256-head", "SKF position, PM0/EP0", 3, 0.0, True)])
+    variants = pd.DataFrame(
+        [
+            row("trim 5 mm", "SKF position, PM0/EP0", 3, 0.0, True),
+            row("rotation allowed", "SKF position, PM0/EP0", 2, 24.0, False),
+        ]
+    )
+    table = report.variants_table(rule, variants, 35).splitlines()
+    assert table[0] == (
+        "| setting | the rule (35 rows) | trim 5 mm (39 rows) | rotation allowed (33 rows) |"
+    )
+    assert table[2] == "| position, PM0/EP0 | **3/5, 0 mm** | **3/5, 0 mm** | 2/5, 24 mm |"

@@ -6,7 +6,13 @@ from . import criteria
 
 #: Colours by family, so that a glance tells the SKF from MNE's methods.
 COLOURS = {"skf": "tab:red", "minimum_norm": "tab:blue", "lcmv": "tab:green", "mxne": "tab:purple"}
+#: The SKF's AR(1) rows are drawn in orange (:func:`_colour`).
 MARKERS = "osD^v<>phX*P8"
+
+
+def _colour(row):
+    """The family's colour; the SKF's AR(1) rows apart from its random walk's."""
+    return "tab:orange" if "/AR" in row["setting"] else COLOURS[row["family"]]
 
 
 def _figure(*args, **kwargs):
@@ -46,14 +52,14 @@ def maxima(recording, table):
                 ax.scatter(
                     point[i],
                     point[j],
-                    color=COLOURS[row["family"]],
+                    color=_colour(row),
                     marker=MARKERS[k % len(MARKERS)],
                     s=40,
                     label=row["setting"],
                 )
             ax.set(title=f"{recording.name}: {event} maxima, {names} (mm)", aspect="equal")
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    figure.legend(handles, labels, loc="outside right", fontsize=7)
+    figure.legend(handles, labels, loc="outside right", fontsize=6)
     return figure
 
 
@@ -73,13 +79,17 @@ def _head(ax, recording, i, j):
 
 def time_courses(recording, table, courses):
     """Each setting's time courses, normalized by their maximum after the stimulus."""
+    from .run import course_window
+
     rows = table[table["recording"] == recording.name].reset_index(drop=True)
     n = len(rows)
-    columns = 4
-    figure = _figure(figsize=(12, 2.2 * int(np.ceil(n / columns))))
-    axes = figure.subplots(int(np.ceil(n / columns)), columns, sharex=True, squeeze=False)
-    times = recording.evoked.times * 1e3
-    after = recording.evoked.times > 0
+    columns = 6
+    lines = int(np.ceil(n / columns))
+    figure = _figure(figsize=(13, 1.45 * lines + 0.6))
+    axes = figure.subplots(lines, columns, sharex=True, squeeze=False)
+    window = course_window(recording)
+    times = recording.evoked.times[window] * 1e3
+    after = recording.evoked.times[window] > 0
     for ax, (_, row) in zip(axes.flat, rows.iterrows(), strict=False):
         course = courses[recording.name, row["setting"]]
         scale = max(course[name][after].max() for name in course) or 1.0
@@ -89,13 +99,49 @@ def time_courses(recording, table, courses):
             ("N20 maximum", dict(color="tab:red", ls="--")),
             ("P14 maximum", dict(color="tab:blue", ls=":")),
         ):
-            ax.plot(times, course[name] / scale, lw=1, label=name, **style)
+            ax.plot(times, course[name] / scale, lw=0.8, label=name, **style)
         for latency in recording.latencies.values():
             ax.axvline(latency * 1e3, color="0.7", lw=0.5)
-        ax.set_title(row["setting"], fontsize=8)
-        ax.set_xlim(-20, 60)
+        ax.set_title(row["setting"].removeprefix("SKF "), fontsize=6.5)
+        ax.tick_params(labelsize=6)
+        ax.set_xlim(times[0], times[-1])
     for ax in axes.flat[n:]:
         ax.set_visible(False)
-    axes.flat[0].legend(fontsize=6, loc="upper left")
-    figure.supxlabel("time (ms)")
+    axes.flat[0].legend(fontsize=5, loc="upper left")
+    figure.supxlabel(f"time (ms); {recording.name}", fontsize=8)
+    return figure
+
+
+def neck(recording, rows):
+    """The 256-channel cap from the left and from behind: the neck rows, the registered
+    template's landmarks and the plane through the inion and the preauricular points."""
+    figure = _figure(figsize=(8, 3.6))
+    positions = np.array([ch["loc"][:3] for ch in recording.evoked.info["chs"]]) * 1e3
+    landmarks = {k: v * 1e3 for k, v in rows.landmarks.items()}
+    for ax, (i, name) in zip(
+        figure.subplots(1, 2),
+        ((1, "from the left: y (front)"), (0, "from behind: x (right)")),
+        strict=True,
+    ):
+        for mask, style in (
+            (~rows.below, dict(color="0.5", s=8)),
+            (rows.below, dict(color="tab:red", s=14)),
+        ):
+            ax.scatter(positions[mask, i], positions[mask, 2], **style)
+        for key, point in landmarks.items():
+            ax.scatter(point[i], point[2], marker="x", color="k", s=30)
+            ax.annotate(
+                key, (point[i], point[2]), fontsize=7, xytext=(3, 3), textcoords="offset points"
+            )
+        # the plane's trace in this view, through the inion (x = its x, y = its y)
+        n, p0 = rows.normal, landmarks["inion"]
+        line = np.linspace(positions[:, i].min(), positions[:, i].max(), 2)
+        z = p0[2] - n[i] * (line - p0[i]) / n[2]
+        ax.plot(line, z, color="tab:red", lw=0.8)
+        ax.set(xlabel=f"{name} (mm)", ylabel="z (up, mm)", aspect="equal")
+    figure.suptitle(
+        f"{len(rows.names)} neck rows (red): below the plane through the inion and the "
+        "preauricular points",
+        fontsize=9,
+    )
     return figure

@@ -104,17 +104,27 @@ def latencies(evoked, n20_near):
     return {"P14": float(p14), "P16": float((p14 + n20) / 2), "N20": float(n20)}
 
 
-def make_recording(name, evoked, forward, noise_cov, n20_near):
-    """A :class:`Recording` with the criteria's geometry and latencies."""
+def make_recording(name, evoked, forward, noise_cov, n20_near, like=None):
+    """A :class:`Recording` with the criteria's geometry and latencies.
+
+    ``like``: a :class:`Recording` of the same average whose geometry (centre, radius,
+    ``p*``, ``u``) and latencies are kept (the 256-channel recording without its neck rows
+    takes the all-channel one's: criteria.NECK_RULE); ``n20_near`` is then unused.
+    """
     import mne
 
-    centre, radius = head_sphere(evoked.info)
-    radial, distance = central_direction(evoked.info, centre)
-    scalp = radius if distance is None else distance
-    central = centre + (scalp - criteria.CENTRAL_DEPTH) * radial
     src = forward["src"][0]
     positions = src["rr"][src["vertno"]]
     fixed = mne.forward.is_fixed_orient(forward)
+    if like is None:
+        centre, radius = head_sphere(evoked.info)
+        radial, distance = central_direction(evoked.info, centre)
+        scalp = radius if distance is None else distance
+        central = centre + (scalp - criteria.CENTRAL_DEPTH) * radial
+        events = latencies(evoked, n20_near)
+    else:
+        centre, radius, central, radial = like.centre, like.radius, like.central, like.radial
+        events = dict(like.latencies)
     return Recording(
         name=name,
         evoked=evoked,
@@ -126,7 +136,7 @@ def make_recording(name, evoked, forward, noise_cov, n20_near):
         radial=radial,
         positions=positions,
         orientations=np.asarray(forward["source_nn"]) if fixed else None,
-        latencies=latencies(evoked, n20_near),
+        latencies=events,
     )
 
 

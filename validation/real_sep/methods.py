@@ -80,10 +80,27 @@ def discrepancy_lambda2(evoked, inverse, tmin=0.0):
     return 10.0 ** brentq(excess, low, high, xtol=1e-6), True
 
 
+#: The SKF's prior parameters among a setting's parameters: the rest go to apply_skf as given.
+PRIOR_KEYS = ("pm_snr_db", "ep_snr_db", "time_constant_ms")
+
+
+def _skf_note(priors, chosen):
+    """What the SKF's priors were: PM-SNR and EP-SNR (walk) or time constant (AR(1))."""
+    if chosen is not None:
+        pm, ep, tau = chosen.pm_snr_db, chosen.ep_snr_db, chosen.time_constant_ms
+    else:
+        pm, ep, tau = (priors.get(k) for k in PRIOR_KEYS)
+    note = f"PM {pm:.1f} / EP {ep:.1f} dB" if tau is None else f"PM {pm:.1f} dB / tau {tau:.3g} ms"
+    bounds = ", ".join(
+        f"{k} at its {v} bound" for k, v in (chosen.at_bound if chosen else {}).items()
+    )
+    return note + (f" ({bounds})" if bounds else "")
+
+
 def _skf(recording, params):
     evoked, cov = recording.evoked, recording.noise_cov
-    priors = {k: params[k] for k in ("pm_snr_db", "ep_snr_db")}
-    setting = {k: v for k, v in params.items() if k not in ("pm_snr_db", "ep_snr_db", "priors")}
+    priors = {k: params[k] for k in PRIOR_KEYS if k in params}
+    setting = {k: v for k, v in params.items() if k not in (*PRIOR_KEYS, "priors")}
     stc, rec = skf_ref.apply_skf(
         evoked,
         recording.forward,
@@ -93,18 +110,7 @@ def _skf(recording, params):
         return_reconstruction=True,
         verbose=False,
     )
-    chosen = rec.tuning
-    pm, ep = (
-        (chosen.pm_snr_db, chosen.ep_snr_db)
-        if chosen is not None
-        else (priors["pm_snr_db"], priors["ep_snr_db"])
-    )
-    bounds = ", ".join(
-        f"{k} at its {v} bound" for k, v in (chosen.at_bound if chosen else {}).items()
-    )
-    bound = f" ({bounds})" if bounds else ""
-    note = f"PM {pm:.1f} / EP {ep:.1f} dB{bound}"
-    return amplitude_on_positions(stc, recording), note
+    return amplitude_on_positions(stc, recording), _skf_note(priors, rec.tuning)
 
 
 _INVERSES = {}  # one inverse operator per recording (its name), made once

@@ -8,6 +8,24 @@ CHECKS = ("N20_left", "N20_central", "N20_cortical", "P14_deep", "P16_deep")
 TITLES = {
     "A0206": "A0206: its own FEM head model (73 channels, 5046 fixed sources)",
     "sep256": "The 256-channel recording: a sphere fitted to the cap (10 mm grid, free)",
+    "sep256-head": "The 256-channel recording without its neck rows (221 channels, the same "
+    "sphere)",
+}
+#: The candidates' table: the settings' names (settings.CANDIDATES) in the study's words, and
+#: the dynamics in the order the columns show them.
+CANDIDATE_NAMES = {
+    "recommended": "column",
+    "column, smoothed weights": "column, smoothed weights",
+    "position": "position",
+    "position, smoothed weights": "position, smoothed weights",
+}
+DYNAMICS = {
+    "PM0/EP0": "walk EP 0 dB",
+    "PM0/EP20": "walk EP 20 dB",
+    "PM0/AR10ms": "AR(1) 10 ms",
+    "PM0/AR30ms": "AR(1) 30 ms",
+    "PM0/AR100ms": "AR(1) 100 ms",
+    "PM0/ARauto": "AR(1) auto",
 }
 RECOMMENDED, PAPER = "SKF recommended", "SKF paper"
 
@@ -50,6 +68,57 @@ def results_table(rows):
             f"{r['seconds']:.1f}",
         ]
         lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def candidates_table(rows):
+    """The SKF candidates at a glance: checks met and the N20's distance to the region.
+
+    One line per candidate (exponent 0.5; standardization, smoother), one column per
+    dynamics (PM-SNR 0 dB); a cell ``met/5, mm``, in bold where the three N20 checks are
+    met (the N20 in the left central region, not deep).
+    """
+    head = "| candidate (exponent 0.5) | " + " | ".join(DYNAMICS.values()) + " |"
+    lines = [head, "|" + "---|" * (len(DYNAMICS) + 1)]
+    for setting, label in CANDIDATE_NAMES.items():
+        cells = []
+        for priors in DYNAMICS:
+            found = rows[rows["setting"] == f"SKF {setting}, {priors}"]
+            if not len(found):
+                cells.append("")
+                continue
+            cells.append(_cell(found.iloc[0]))
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _cell(r):
+    cell = f"{r['checks_met']}/5, {r['N20_to_central_mm']:.0f} mm"
+    n20 = r["check_N20_left"] and r["check_N20_central"] and r["check_N20_cortical"]
+    return f"**{cell}**" if n20 else cell
+
+
+def variants_table(rows, variants, dropped):
+    """The rule's rows beside its neighbours': one line per setting run on all of them.
+
+    ``rows``: the rule's recording's rows; ``variants``: :func:`run.neck_variants`'s table;
+    ``dropped``: the number of rows the rule drops.
+    """
+    labels = list(dict.fromkeys(variants["recording"]))
+    sizes = variants.groupby("recording", sort=False)["rows"].first()
+    head = (
+        f"| setting | the rule ({dropped} rows) | "
+        + " | ".join(f"{label} ({sizes[label]} rows)" for label in labels)
+        + " |"
+    )
+    lines = [head, "|" + "---|" * (len(labels) + 2)]
+    for setting in dict.fromkeys(variants["setting"]):
+        rule = rows[rows["setting"] == setting]
+        cells = [_cell(rule.iloc[0]) if len(rule) else ""]
+        for label in labels:
+            found = variants[(variants["recording"] == label) & (variants["setting"] == setting)]
+            cells.append(_cell(found.iloc[0]) if len(found) else "")
+        lines.append(f"| {setting.removeprefix('SKF ')} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -150,6 +219,41 @@ def verdict(table):
     return "\n".join(lines)
 
 
+def _groups(rows):
+    """The rows in the groups the report speaks of: the SKF's candidates, its other
+    settings, the minimum-norm methods, LCMV and MxNE."""
+    candidates = {f"SKF {s}, {p}" for s in CANDIDATE_NAMES for p in DYNAMICS}
+    is_candidate = rows["setting"].isin(candidates)
+    skf = rows["family"] == "skf"
+    return {
+        "the SKF's candidates": rows[skf & is_candidate],
+        "the SKF's other settings (the paper's, priors auto)": rows[skf & ~is_candidate],
+        "MNE's minimum-norm methods": rows[rows["family"] == "minimum_norm"],
+        "LCMV and MxNE": rows[rows["family"].isin(("lcmv", "mxne"))],
+    }
+
+
+def where_they_land(rows, recording):
+    """Where each group puts its N20 maximum on one recording, in words (generated)."""
+    lines = []
+    for group, found in _groups(rows).items():
+        if not len(found):
+            continue
+        n = len(found)
+        n20 = found["check_N20_left"] & found["check_N20_central"] & found["check_N20_cortical"]
+        below = found["N20_z_mm"] < recording.centre[2] * 1e3
+        distance = found["N20_to_central_mm"]
+        named = "; ".join(found[n20]["setting"]) if n20.any() else "none"
+        left = int(found["N20_left"].sum())
+        lines.append(
+            f"- {group} ({n}): the N20 maximum in the left hemisphere in {left}, "
+            f"in the central region in {int(n20.sum())} ({named}); its distance to the region "
+            f"{distance.min():.0f}-{distance.max():.0f} mm (median {distance.median():.0f}); "
+            f"below the head's centre in {int(below.sum())}."
+        )
+    return "\n".join(lines)
+
+
 def observations(table, recordings):
     """What the numbers show beyond the criteria: said after reading them, not criteria."""
     lines = [
@@ -179,8 +283,9 @@ def observations(table, recordings):
         "electrodes carry the largest amplitudes at 13.5 ms (the cervical N13 and the P14) "
         "and still at 19.3 ms, beside the N20/P20 over the left central scalp (the sensor "
         "figure). The sphere's grid fills the sphere down there, where there is no brain. "
-        "Maxima at the bottom of the grid may stand for those generators (the brainstem and "
-        "the cervical cord, far below the 40 mm of the deep region) or for the sphere's "
-        "misfit: without an MRI this recording cannot tell."
+        "With those rows (sep256) the maxima go to the bottom of the grid, and may stand for "
+        "those generators (the brainstem and the cervical cord, far below the 40 mm of the "
+        "deep region) or for the sphere's misfit; without them (sep256-head) the same grid "
+        "is there, and fewer maxima go down (the counts above)."
     )
     return "\n".join(lines)
