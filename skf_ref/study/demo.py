@@ -320,8 +320,8 @@ def run_demo(
             ep_snr_db=ep_snr_db,
             time_constant_ms=tau,
             positions_requested=n_positions,
-            paper_pm_snr_db=tuning.pm_snr_db if shared else _PAPER_PRIORS[0],
-            paper_ep_snr_db=tuning.ep_snr_db if shared else _PAPER_PRIORS[1],
+            paper_pm_snr_db=tuning.pm_snr_db if shared and tuning else _PAPER_PRIORS[0],
+            paper_ep_snr_db=tuning.ep_snr_db if shared and tuning else _PAPER_PRIORS[1],
             paper_theta0=paper_priors[0],
             paper_q=paper_priors[1],
         )
