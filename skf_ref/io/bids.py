@@ -448,7 +448,7 @@ def apply_skf_bids(
     ------
     skf_ref.InputError
         Before any work: ``root`` is not the pipeline's derivatives, or an evoked lacks its
-        forward or noise covariance (:func:`find_derivatives`); then anything
+        forward or noise covariance (``find_derivatives``); then anything
         :func:`skf_ref.make_skf_operator` or :func:`skf_ref.apply_skf` refuses, naming the
         file. The subjects finished before stay written.
 

@@ -210,7 +210,7 @@ def run_demo(
     time_constant_ms : float or "auto" or (float, float)
         The first SKF's stationary AR(1) prior (:func:`skf_ref.ar1_priors`): its time
         constant in ms at the simulation's sampling rate, or chosen by the data's marginal
-        likelihood ("auto", the default, :data:`skf_ref.method._priors.DEFAULT_TIME_CONSTANT_MS`:
+        likelihood ("auto", the default:
         1 to 1000 ms; or a range; None is the default too). Give another value or
         ``ep_snr_db``, not both. The paper's setting keeps its own priors.
     exponent : float
