@@ -32,7 +32,7 @@ pandas: names load on first use.
 """
 
 from ._utils.lazy import attach
-from .version import __version__
+from ._version import __version__
 
 #: Public name -> the module that defines or declares it.
 _HOMES = {
@@ -58,7 +58,7 @@ _HOMES = {
     "read_skf_operator": "io",
     "read_skf_stream": "io",
     "write_skf_operator": "io",
-    "compare": "conformance.compare",
+    "compare": "conformance._compare",
     "sys_info": "_utils.sys_info",
 }
 

@@ -1,7 +1,7 @@
 """An SKF written from docs/model.md alone, as another lab would write it: the tests' outsider.
 
 Nothing here comes from ``skf_ref``'s computations: plain numpy in one loop, with every
-catalogued mistake (``skf_ref.conformance.mistakes``) available as a switch, so that the
+catalogued mistake (``skf_ref.conformance._mistakes``) available as a switch, so that the
 tests can show that an implementation making a mistake fails a case and hears its name,
 and with a ``dtype`` switch, so that they can show what a single-precision implementation
 is told. ``run_case`` applies it to a conformance case the way docs/conformance.md tells a

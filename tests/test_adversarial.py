@@ -22,7 +22,7 @@ from processes import ctrl_c, start, wait_for_line
 import skf_ref
 from skf_ref import InputError, InputTypeError, reconstruct
 from skf_ref._utils.atomic_files import atomic_path
-from skf_ref.study.sweep import read_results, run_sweep
+from skf_ref.study._sweep import read_results, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = os.environ | {"PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
@@ -436,7 +436,7 @@ def test_ctrl_c_while_writing_ends_with_one_line_130_and_no_file(tmp_path):
 _IN_A_FINALIZER = textwrap.dedent(
     """
     import sys, time
-    import skf_ref.cli.reconstruct as command
+    import skf_ref.cli._reconstruct as command
     from skf_ref.cli import console
 
     class Slow:

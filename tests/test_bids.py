@@ -24,7 +24,7 @@ from rounding import TUNED_RTOL, assert_same_to_rounding
 
 import skf_ref
 from skf_ref import InputError
-from skf_ref.io.bids import output_name
+from skf_ref.io._bids import output_name
 
 CONDITIONS = ("auditory/left", "visual")
 NAMES = ("auditoryleft", "visual", "auditoryleftvisual")  # the contrast's name last
@@ -235,7 +235,7 @@ def test_the_command_line_refuses_a_bad_root_in_one_line(cli, derivatives, argum
 
 @pytest.fixture(scope="module")
 def testing_data():
-    from skf_ref.study.head import find_testing_data
+    from skf_ref.study._head import find_testing_data
 
     found = find_testing_data(os.environ.get("SKF_REF_TESTING_DATA"))
     if found is None:

@@ -29,7 +29,7 @@ def demo_dir(tmp_path_factory):
 
 @pytest.mark.slow
 def test_demo_writes_figures_arrays_and_metrics(demo_dir, capsys):
-    from skf_ref.study.demo import OUTPUTS
+    from skf_ref.study._demo import OUTPUTS
 
     assert sorted(p.name for p in demo_dir.iterdir()) == sorted(OUTPUTS)
     for png in demo_dir.glob("*.png"):

@@ -18,9 +18,10 @@ from scipy.io import savemat
 
 from skf_ref import InputError, compare
 from skf_ref.cli import main
-from skf_ref.conformance import FLOAT32_TOLERANCE, OUTPUTS, TOLERANCE, cases, export
+from skf_ref.conformance import FLOAT32_TOLERANCE, TOLERANCE, cases, export
+from skf_ref.conformance._cases import OUTPUTS
 from skf_ref.conformance._distances import NEARER
-from skf_ref.conformance.mistakes import SUSPECTS
+from skf_ref.conformance._mistakes import SUSPECTS
 
 ENV = os.environ | {"PYTHONPATH": str(Path(__file__).resolve().parents[1])}
 CASES = {case.name: case for case in cases()}
@@ -49,7 +50,7 @@ def _suspect(name):
 
 
 def _long_csv(path, outputs, number="{!r}", encoding="utf-8"):
-    """Their outputs as the long table of skf_ref.conformance.their_outputs."""
+    """Their outputs as the long table of skf_ref.conformance._their_outputs."""
     with open(path, "w", newline="", encoding=encoding) as stream:
         writer = csv.writer(stream)
         writer.writerow(["output", "source", "step", "value"])
@@ -314,7 +315,7 @@ def test_unusable_csv_names_the_line(tmp_path, content, match):
 @pytest.mark.parametrize("fmt", ["npz", "mat"])
 def test_a_changed_copy_of_a_pinned_case_is_refused(tmp_path, exported, fmt):
     from skf_ref.conformance import write_case
-    from skf_ref.conformance.cases import Case
+    from skf_ref.conformance._cases import Case
 
     case = CASES["square"]
     expected = {**case.expected, "z": 2 * case.expected["z"]}

@@ -24,7 +24,8 @@ from skf_ref import (
     read_skf_stream,
     write_skf_operator,
 )
-from skf_ref.io import operator_file, zarr_dask
+from skf_ref.io import _operator_file as operator_file
+from skf_ref.io import _zarr_dask as zarr_dask
 
 zarr = pytest.importorskip("zarr")
 

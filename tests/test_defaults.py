@@ -15,7 +15,7 @@ from pathlib import Path
 import skf_ref
 from skf_ref.cli import build_parser
 from skf_ref.method._priors import DEFAULT_EP_SNR_DB, DEFAULT_TIME_CONSTANT_MS
-from skf_ref.study.demo import run_demo
+from skf_ref.study._demo import run_demo
 
 CHOICE = Path(__file__).resolve().parent.parent / "validation" / "report" / "default.json"
 ROUTES = (skf_ref.apply_skf, skf_ref.apply_skf_epochs, skf_ref.apply_skf_raw)
@@ -67,7 +67,7 @@ def test_the_priors_default_to_the_ar1_prior_chosen_by_the_data_where_the_rate_i
 def test_the_command_line_takes_the_ar1_prior_where_the_rate_is_known(tmp_path):
     import numpy as np
 
-    from skf_ref.cli.reconstruct import _route
+    from skf_ref.cli._reconstruct import _route
 
     np.save(tmp_path / "L.npy", np.eye(3))
     np.save(tmp_path / "Y.npy", np.eye(3))

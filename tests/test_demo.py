@@ -1,4 +1,4 @@
-"""The demo as a library function (:func:`skf_ref.study.demo.run_demo`): what the CLI calls."""
+"""The demo as a library function (:func:`skf_ref.study._demo.run_demo`): what the CLI calls."""
 
 import contextlib
 import io
@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 import skf_ref
-from skf_ref.study.demo import COLUMNS, DATA, DETECTION_COLUMNS, OUTPUTS, RENAMED, run_demo
+from skf_ref.study._demo import COLUMNS, DATA, DETECTION_COLUMNS, OUTPUTS, RENAMED, run_demo
 
 COMMITTED = Path(__file__).resolve().parents[1] / "validation" / "demo"
 
@@ -98,7 +98,7 @@ def test_the_first_skf_runs_the_ar1_prior_its_time_constant_chosen_by_the_data(d
 
 def test_the_calibration_runs_the_model_the_demo_runs(demo):
     # the thresholds' null runs go through the same SKFs, transition included
-    from skf_ref.study.demo import _methods
+    from skf_ref.study._demo import _methods
 
     priors = (demo.settings["theta0"], demo.settings["q"], demo.settings["transition"])
     setting = {k: demo.settings[k] for k in ("exponent", "smoother", "standardize")}
@@ -118,7 +118,7 @@ def test_ep_snr_db_runs_the_papers_random_walk_instead():
 
 @pytest.mark.slow
 def test_nothing_is_written_without_a_folder_and_everything_with_one(demo, tmp_path):
-    from skf_ref.study.demo import write
+    from skf_ref.study._demo import write
 
     write(demo, tmp_path / "new")
     assert sorted(p.name for p in (tmp_path / "new").iterdir()) == sorted(OUTPUTS)
@@ -150,8 +150,8 @@ def test_bad_input_names_the_parameter_before_any_work(tmp_path):
 
 @pytest.mark.slow
 def test_on_cortex_and_thalamus_detection_is_the_level_against_a_calibrated_threshold(tmp_path):
-    from skf_ref.study.detection import thalamic_level
-    from skf_ref.study.sources import position_structures
+    from skf_ref.study._detection import thalamic_level
+    from skf_ref.study._sources import position_structures
 
     demo = run_demo(tmp_path / "out", head="sphere", source_space="anatomical", verbose=False)
     thalamus = position_structures(demo.head) == "thalamus"

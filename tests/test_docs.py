@@ -19,7 +19,7 @@ from rounding import run_page_examples
 
 import skf_ref
 from skf_ref.cli import build_parser
-from skf_ref.study import metrics
+from skf_ref.study import _metrics as metrics
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -119,7 +119,7 @@ def test_metrics_table_is_the_code_s():
     text = (DOCS / "study.md").read_text()
     rows = re.findall(r"^\| `(\w+)` \| (.+?) \| (.+?) \| (.+?) \|$", text, re.M)
     rows = [tuple(cell.replace("\\|", "|") for cell in row) for row in rows]
-    from skf_ref.study.demo import DETECTION_COLUMNS
+    from skf_ref.study._demo import DETECTION_COLUMNS
 
     assert rows == [tuple(column) for column in (*metrics.COLUMNS, *DETECTION_COLUMNS)]
 

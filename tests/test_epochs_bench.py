@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from skf_ref.study.head import find_testing_data
+from skf_ref.study._head import find_testing_data
 from validation import epochs_bench
 
 

@@ -15,7 +15,7 @@ import skf_ref
 from skf_ref import InputError, make_skf_operator, write_skf_operator
 from skf_ref._utils.atomic_files import atomic_path
 from skf_ref.conformance import export
-from skf_ref.io import operator_file
+from skf_ref.io import _operator_file as operator_file
 
 
 def _leftovers(folder):
@@ -170,7 +170,7 @@ def test_export_refuses_another_suites_manifest_without_overwrite(tmp_path):
 
 
 def test_demo_replaces_the_users_files_only_with_overwrite(cli, tmp_path):
-    from skf_ref.study.demo import run_demo
+    from skf_ref.study._demo import run_demo
 
     (tmp_path / "metrics.csv").write_text("the user's metrics")
     (tmp_path / "settings.json").write_text("{}")

@@ -7,10 +7,11 @@ import pytest
 
 from skf_ref import InputError, compare
 from skf_ref.cli import main
-from skf_ref.conformance import OUTPUTS, cases
+from skf_ref.conformance import cases
+from skf_ref.conformance._cases import OUTPUTS
 from skf_ref.conformance._expected import expected_variables
 from skf_ref.conformance._intermediates import QUANTITIES
-from skf_ref.conformance.mistakes import SUSPECTS
+from skf_ref.conformance._mistakes import SUSPECTS
 
 CASES = {case.name: case for case in cases()}
 

@@ -12,8 +12,8 @@ import mne  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from skf_ref.study import head as heads  # noqa: E402
-from skf_ref.study.head import Anatomy  # noqa: E402
+from skf_ref.study import _head as heads  # noqa: E402
+from skf_ref.study._head import Anatomy  # noqa: E402
 
 #: Radii (m) and conductivities (S/m) of the three nested shells: brain, skull, scalp.
 RADII = (0.080, 0.085, 0.090)
@@ -238,7 +238,7 @@ def test_cache_folder(monkeypatch, tmp_path):
 def test_the_subjects_own_electrodes_and_noise_covariance(tmp_path):
     """Read from files in the dataset's layout, made here: MEG and EEG channels, one EEG
     channel bad in the covariance (as EEG 053 is in the sample subject's)."""
-    from skf_ref.study.head import SENSOR_FILES, subject_electrodes
+    from skf_ref.study._head import SENSOR_FILES, subject_electrodes
 
     rng = np.random.default_rng(0)
     names = ["MEG 0111", "EEG 001", "EEG 002", "EEG 003", "EEG 004", "EEG 005"]

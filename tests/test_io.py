@@ -9,7 +9,7 @@ from scipy.io import savemat
 
 from skf_ref import InputError, apply_skf, reconstruct
 from skf_ref.io import read_data, read_leadfield, write_reconstruction, write_stc
-from skf_ref.io.variables import read_variables
+from skf_ref.io._variables import read_variables
 
 RNG = np.random.default_rng(0)
 L = RNG.standard_normal((5, 12))
@@ -274,7 +274,7 @@ def test_channel_names_named_twice_or_miscounted_are_refused(tmp_path, fmt, name
 def test_every_writer_names_a_swapped_or_wrong_argument(tmp_path, mne_setup):
     from skf_ref.conformance import build, cases, export, write_case
     from skf_ref.io import stc_to_zarr, to_zarr
-    from skf_ref.study.sweep import run_sweep
+    from skf_ref.study._sweep import run_sweep
 
     def small_grid():
         axes = ("snr_db", "ep_snr_db", "pm_snr_db", "exponent", "smoother", "seed")
@@ -329,7 +329,7 @@ def test_a_reconstruction_written_where_it_cannot_be_names_the_user_s_path(tmp_p
 
 
 def test_a_vector_estimate_is_refused_as_stc_before_anything_is_written(tmp_path, mne_setup):
-    from skf_ref.io.files import stc_files
+    from skf_ref.io._files import stc_files
 
     evoked = mne_setup["make_epochs"](target=300, seed=5).average()
     vector = apply_skf(evoked, mne_setup["forward"], noise_std=1e-6, pick_ori="vector")

@@ -230,7 +230,7 @@ def test_what_is_no_regular_file_is_named(cli, odd_files, arrays):
 
 
 def test_the_plot_shows_positions_and_samples(cli, arrays, tmp_path, monkeypatch):
-    import skf_ref.study.plots as plots
+    import skf_ref.study._plots as plots
 
     drawn = {}
     original = plots.plot_estimate

@@ -7,7 +7,8 @@ import pytest
 
 from skf_ref import InputError
 from skf_ref.method import amplitude_from_components
-from skf_ref.study import metrics, regions
+from skf_ref.study import _metrics as metrics
+from skf_ref.study import _regions as regions
 
 # A line of positions 5 mm apart along x (metres): distances between them are exact.
 POSITIONS = np.column_stack([np.arange(0, 0.1, 0.005), np.zeros(20), np.zeros(20)])

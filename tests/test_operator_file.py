@@ -21,7 +21,7 @@ from skf_ref import (
     read_skf_stream,
     write_skf_operator,
 )
-from skf_ref.io import operator_file
+from skf_ref.io import _operator_file as operator_file
 
 zarr = pytest.importorskip("zarr")
 

@@ -8,9 +8,9 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from skf_ref import priors_from_snr, reconstruct  # noqa: E402
-from skf_ref.study import plots
-from skf_ref.study.regions import region_time_course  # noqa: E402
-from skf_ref.study.scenario import make_head_model, p20n20_scenario, simulate  # noqa: E402
+from skf_ref.study import _plots as plots
+from skf_ref.study._regions import region_time_course  # noqa: E402
+from skf_ref.study._scenario import make_head_model, p20n20_scenario, simulate  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -1,12 +1,12 @@
 """Resolution metrics, the calibrated detector and sources drawn off the grid
-(skf_ref.study.resolution, skf_ref.study.detection, skf_ref.study.sources)."""
+(skf_ref.study._resolution, skf_ref.study._detection, skf_ref.study._sources)."""
 
 import numpy as np
 import pytest
 
 from skf_ref import InputError
-from skf_ref.study.detection import FALSE_DETECTION_RATE, null_threshold, thalamic_level
-from skf_ref.study.resolution import (
+from skf_ref.study._detection import FALSE_DETECTION_RATE, null_threshold, thalamic_level
+from skf_ref.study._resolution import (
     level_db,
     peak_errors,
     position_amplitudes,
@@ -92,8 +92,8 @@ def test_the_thalamic_level_is_the_thalamus_maximum():
 
 
 def test_sources_are_drawn_in_their_cells_and_labels_reproducibly():
-    from skf_ref.study.head import make_head
-    from skf_ref.study.sources import draw_sources, position_structures
+    from skf_ref.study._head import make_head
+    from skf_ref.study._sources import draw_sources, position_structures
 
     head = make_head("sphere", "anatomical", spacing_mm=12.0)
     structures = position_structures(head)
@@ -117,9 +117,9 @@ def test_sources_are_drawn_in_their_cells_and_labels_reproducibly():
 
 
 def test_null_levels_feed_every_method_the_same_null_runs():
-    from skf_ref.study.detection import null_levels
-    from skf_ref.study.head import make_head
-    from skf_ref.study.resolution import position_amplitudes as amplitudes
+    from skf_ref.study._detection import null_levels
+    from skf_ref.study._head import make_head
+    from skf_ref.study._resolution import position_amplitudes as amplitudes
 
     head = make_head("sphere", "anatomical", spacing_mm=12.0)
     wave = 1e-8 * np.hanning(9)
@@ -142,10 +142,10 @@ def test_null_levels_feed_every_method_the_same_null_runs():
 
 
 def test_calibrate_gives_each_method_its_own_threshold_in_its_own_units():
-    from skf_ref.study.detection import calibrate, null_levels
-    from skf_ref.study.head import make_head
-    from skf_ref.study.resolution import position_amplitudes as amplitudes
-    from skf_ref.study.scenario import p20n20_scenario, simulate
+    from skf_ref.study._detection import calibrate, null_levels
+    from skf_ref.study._head import make_head
+    from skf_ref.study._resolution import position_amplitudes as amplitudes
+    from skf_ref.study._scenario import p20n20_scenario, simulate
 
     head = make_head("sphere", "anatomical", spacing_mm=12.0)
     sim = simulate(head, p20n20_scenario(), 20.0, 0)

@@ -5,8 +5,8 @@ import os
 import pytest
 
 from skf_ref import InputError
-from skf_ref.study.sweep import KEY
-from skf_ref.study.sweep._results import ResultsFile, read_results
+from skf_ref.study._sweep import KEY
+from skf_ref.study._sweep._results import ResultsFile, read_results
 
 ROW = {k: 0 for k in KEY} | dict(montage="biosemi64", smoother="none", peak_error_mm=1.0)
 

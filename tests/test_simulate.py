@@ -4,8 +4,8 @@ import mne
 import numpy as np
 import pytest
 
-from skf_ref.study.head import template_mni_to_head
-from skf_ref.study.scenario import (
+from skf_ref.study._head import template_mni_to_head
+from skf_ref.study._scenario import (
     DEEP_MNI_MM,
     SUPERFICIAL_MNI_MM,
     make_head_model,
@@ -238,7 +238,7 @@ def test_noise_with_the_heads_recorded_covariance(head, scenario):
 
 
 def test_the_drawn_noise_has_the_covariance():
-    from skf_ref.study.scenario import _covariance_factor
+    from skf_ref.study._scenario import _covariance_factor
 
     rng = np.random.default_rng(0)
     A = rng.standard_normal((6, 6))

@@ -85,7 +85,7 @@ def test_a_failed_write_leaves_no_store_and_says_why(tmp_path, monkeypatch):
     # reach the caller, and the half-written store must go
     import errno
 
-    from skf_ref.io import zarr_dask as stream
+    from skf_ref.io import _zarr_dask as stream
 
     written = []
 
@@ -157,7 +157,7 @@ def test_dask_array_on_a_local_cluster_equals_the_arrays(cluster, smoother):
 def test_sweep_on_a_local_cluster_of_processes(cluster, tmp_path):
     import joblib
 
-    from skf_ref.study.sweep import KEY, run_sweep
+    from skf_ref.study._sweep import KEY, run_sweep
 
     grid = dict(
         snr_db=[20.0],
@@ -237,7 +237,7 @@ def test_a_killed_writer_s_temporaries_go_on_the_next_run(tmp_path):
 
     import zarr
 
-    from skf_ref.io.zarr_dask import STORE_MARK
+    from skf_ref.io._zarr_dask import STORE_MARK
 
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()

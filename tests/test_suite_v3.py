@@ -14,7 +14,7 @@ from independent_skf import run_case, skf
 from skf_ref import InputError, compare
 from skf_ref.cli import main
 from skf_ref.conformance import CONFORMANCE_VERSION, cases, export, read_case, verify
-from skf_ref.conformance.suite import SUITES, manifest
+from skf_ref.conformance._suite import SUITES, manifest
 
 CASES = {case.name: case for case in cases(suite=3)}
 #: sha256 of suite_v2/manifest.json as skf_ref 0.3 pinned it: it lists every v2 file's sha256,

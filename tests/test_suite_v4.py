@@ -10,7 +10,7 @@ from independent_skf import run_case
 from skf_ref import ar1_priors, compare
 from skf_ref.cli import main
 from skf_ref.conformance import CONFORMANCE_VERSION, cases, export, verify
-from skf_ref.conformance.suite import SUITES, manifest
+from skf_ref.conformance._suite import SUITES, manifest
 
 CASES = {case.name: case for case in cases()}
 AR1 = ("ar1_prior", "ar1_prior_smoothed")

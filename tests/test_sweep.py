@@ -14,9 +14,9 @@ import pandas as pd
 import pytest
 
 from skf_ref import priors_from_snr, reconstruct
-from skf_ref.study import metrics
-from skf_ref.study import scenario as simulate
-from skf_ref.study.sweep import (
+from skf_ref.study import _metrics as metrics
+from skf_ref.study import _scenario as simulate
+from skf_ref.study._sweep import (
     KEY,
     TornLineWarning,
     check_grid,
@@ -133,7 +133,7 @@ KILL_GRID = dict(
 _KILLED_SWEEP = textwrap.dedent(
     """
     import json, sys
-    from skf_ref.study.sweep import run_sweep
+    from skf_ref.study._sweep import run_sweep
     grid = json.loads(sys.argv[2])
     run_sweep(grid, sys.argv[1], verbose=False, n_positions=int(sys.argv[3]), runs_per_task=1)
     """

@@ -193,8 +193,8 @@ def test_choose_priors_passes_the_criterion_and_warns_at_its_caller():
 
 
 def test_landscape_is_finite_over_the_default_grid_of_the_study():
-    from skf_ref.study.head import make_head_model
-    from skf_ref.study.scenario import p20n20_scenario, simulate
+    from skf_ref.study._head import make_head_model
+    from skf_ref.study._scenario import p20n20_scenario, simulate
 
     head = make_head_model(500)
     sim = simulate(head, p20n20_scenario(), 10.0, seed=0)
@@ -260,7 +260,7 @@ def test_bad_ranges_are_refused(change, match):
 
 
 def test_landscape_figure_marks_the_chosen_point():
-    from skf_ref.study.plots import plot_landscape
+    from skf_ref.study._plots import plot_landscape
 
     L, Y = state_space_data(5, T=20)
     result = tune(L, Y, noise_std=0.5, grid=5)

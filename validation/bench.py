@@ -12,7 +12,7 @@ path and the source estimate, from an evoked, a forward and a covariance), ``tun
 over -20..40 dB and a bounded refinement, SVD included), or MNE-Python's sLORETA:
 ``mne-sloreta`` is ``mne.minimum_norm.apply_inverse`` on an inverse operator made
 beforehand, ``mne-sloreta+make`` also times ``make_inverse_operator`` (MNE's SVD),
-on the same sphere-model forward (``skf_ref.study.scenario.make_head_model``) and the same data
+on the same sphere-model forward (``skf_ref.study._scenario.make_head_model``) and the same data
 (a dipole at one grid position with a 10 Hz-like oscillation plus white noise, seeded).
 
 Time is the median wall time of up to ``--repeats`` runs (fewer when one run is slow; the

@@ -74,7 +74,7 @@ def _shown(result):
 def _misleading(case, shown, theirs, scales):
     """The shown suspects whose outputs do not reproduce theirs within FACTOR tolerances."""
     from skf_ref.conformance._distances import distance
-    from skf_ref.conformance.mistakes import SUSPECTS
+    from skf_ref.conformance._mistakes import SUSPECTS
 
     wrong = []
     for name in shown:

@@ -73,7 +73,7 @@ def make_inputs(n_columns, n_channels, n_times, seed=0):
     """
     import mne
 
-    from skf_ref.study.scenario import make_head_model
+    from skf_ref.study._scenario import make_head_model
 
     head = make_head_model(n_positions=n_columns // 3, montage=MONTAGES[n_channels])
     rng = np.random.default_rng(seed)

@@ -35,11 +35,11 @@ def make_problem(n_columns: int, n_channels: int, n_times: int, seed: int = 0) -
     Returns
     -------
     dict
-        ``head`` (:class:`skf_ref.study.scenario.HeadModel`), ``Y`` (n_channels, n_times),
+        ``head`` (:class:`skf_ref.study._scenario.HeadModel`), ``Y`` (n_channels, n_times),
         ``noise_std``, ``theta0``, ``q``.
     """
     from skf_ref import priors_from_snr
-    from skf_ref.study.scenario import make_head_model
+    from skf_ref.study._scenario import make_head_model
 
     if n_channels not in MONTAGES:
         raise ValueError(f"n_channels must be one of {sorted(MONTAGES)}, got {n_channels}")

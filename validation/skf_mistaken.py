@@ -5,7 +5,7 @@ declares (``quantity``) the quantity of docs/conformance.md its mistake changes 
 order the equations produce them: what ``skf-ref compare`` should name as the first
 divergence when the intermediates are given. The declarations were committed before any
 comparison was run (validation/conformance_mistakes.md). None of these is in
-``skf_ref.conformance.mistakes``; :data:`NEWCOMER` are five more, as a newcomer to the SKF
+``skf_ref.conformance._mistakes``; :data:`NEWCOMER` are five more, as a newcomer to the SKF
 makes them.
 """
 

@@ -34,10 +34,10 @@ import pandas as pd
 from threadpoolctl import threadpool_info
 
 import skf_ref
-from skf_ref.study.head import make_head_model
-from skf_ref.study.metrics import time_course_correlation
-from skf_ref.study.regions import region_time_course
-from skf_ref.study.scenario import p20n20_scenario, simulate
+from skf_ref.study._head import make_head_model
+from skf_ref.study._metrics import time_course_correlation
+from skf_ref.study._regions import region_time_course
+from skf_ref.study._scenario import p20n20_scenario, simulate
 
 SNR_DB = 20.0
 TIME_CONSTANTS_MS = (5.0, 10.0, 20.0)

@@ -29,10 +29,10 @@ from skf_ref import conformance
 # ----------------
 # Versions 2 and 3 of the suite ship with the package: small fixed problems whose expected
 # outputs were computed once, each as ``.npz`` and MATLAB ``.mat``, with the sha256 of
-# every file in ``manifest.json``. :func:`~skf_ref.conformance.suite.export` copies them
+# every file in ``manifest.json``. :func:`~skf_ref.conformance.export` copies them
 # byte for byte, whatever ``skf_ref`` is installed, with two runners, ``run_cases.m`` and
 # ``run_cases.py`` (``skf-ref conformance export DIR`` on the command line), and
-# :func:`~skf_ref.conformance.suite.verify` names any file that is not the suite's. This
+# :func:`~skf_ref.conformance.verify` names any file that is not the suite's. This
 # example runs version 2 (``suite=2``): the SKF below has neither the standardization per
 # position nor the smoother standardized by its own variance, which version 3 adds.
 

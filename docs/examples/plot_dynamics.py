@@ -19,9 +19,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import skf_ref
-from skf_ref.study.head import make_head_model
-from skf_ref.study.regions import region_time_course
-from skf_ref.study.scenario import p20n20_scenario, simulate
+from skf_ref.study import make_head_model, p20n20_scenario, region_time_course, simulate
 
 head = make_head_model(500)  # sphere head, biosemi64, a 480-position volume grid
 L = head.leadfield

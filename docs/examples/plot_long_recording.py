@@ -21,9 +21,7 @@ import zarr
 
 import skf_ref
 from skf_ref.io import to_zarr
-from skf_ref.study.head import make_head_model
-from skf_ref.study.regions import region_mask
-from skf_ref.study.scenario import p20n20_scenario, simulate
+from skf_ref.study import make_head_model, p20n20_scenario, region_mask, simulate
 
 # %%
 # The recording

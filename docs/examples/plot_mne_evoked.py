@@ -24,9 +24,8 @@ import mne
 import numpy as np
 
 import skf_ref
-from skf_ref.study.head import find_testing_data, make_realistic_head
-from skf_ref.study.plots import plot_estimate
-from skf_ref.study.scenario import SUPERFICIAL_MNI_MM
+from skf_ref.study import find_testing_data, make_realistic_head, plot_estimate
+from skf_ref.study._scenario import SUPERFICIAL_MNI_MM  # the paper's cortical site
 
 mne.set_log_level("warning")  # MNE's progress messages off
 
@@ -77,7 +76,7 @@ fig_evoked = evoked.plot_joint(times=[0.015], show=False)
 # --------------------------
 # The SKF at the package's default setting (exponent 0.5, no smoother, PM-SNR 0 dB,
 # EP-SNR 20 dB); sLORETA with MNE's usual regularization for evoked data, free orientation
-# and no depth weighting, as the study runs it (:mod:`skf_ref.study.baselines`). Both
+# and no depth weighting, as the study runs it (:mod:`skf_ref.study`). Both
 # whiten the evoked, an average of 30 epochs, with the noise covariance of one trial
 # divided by its ``nave`` (30), as the log says.
 
@@ -167,7 +166,7 @@ ax.legend(loc="upper left", fontsize="small")
 # The realistic head
 # ------------------
 # MNE's "sample" subject: a three-layer boundary-element model and a 10 mm grid filling
-# its inner skull (:func:`skf_ref.study.head.make_realistic_head`; its forward model is
+# its inner skull (:func:`skf_ref.study.make_realistic_head`; its forward model is
 # cached on disk after the first run). It needs MNE's testing dataset, which is never
 # downloaded: MNE's own lookup finds it, or the environment variable
 # ``SKF_REF_TESTING_DATA`` names its folder. The dipole now sits where the study puts the

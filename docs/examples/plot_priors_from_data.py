@@ -16,10 +16,7 @@ import warnings
 import pandas as pd
 
 import skf_ref
-from skf_ref.study.head import make_head_model
-from skf_ref.study.metrics import summarize
-from skf_ref.study.plots import plot_landscape
-from skf_ref.study.scenario import p20n20_scenario, simulate
+from skf_ref.study import make_head_model, p20n20_scenario, plot_landscape, simulate, summarize
 
 head = make_head_model(1000)  # MNE's sphere, biosemi64, a grid of about 1000 positions
 sim = simulate(head, p20n20_scenario(), snr_db=20, seed=0)

@@ -7,15 +7,14 @@ cortical one at 2.5 ms, at 30 dB. A deep region that lights up means little unle
 dark when the deep source is not there, so every data set comes twice: with both sources,
 and with the deep one left out (the same noise). Each is reconstructed three ways: the SKF
 at the recommended setting, the SKF at the paper's, and MNE's sLORETA.
-:func:`skf_ref.study.demo.run_demo` does it all (``skf-ref demo`` runs it); here on the
+:func:`skf_ref.study.run_demo` does it all (``skf-ref demo`` runs it); here on the
 spherical head, cortex + thalamus, which needs no dataset (:doc:`/choosing` shows the same
 on the realistic head, and the evidence over 20 seeds).
 """
 
 import pandas as pd
 
-from skf_ref.study.demo import run_demo
-from skf_ref.study.plots import plot_comparison
+from skf_ref.study import plot_comparison, run_demo
 
 demo = run_demo(head="sphere", snr_db=30.0, seed=0, verbose=False)
 print(demo.head.description)

@@ -27,11 +27,16 @@ import numpy as np
 import pandas as pd
 
 from skf_ref import priors_from_snr, reconstruct
-from skf_ref.study.baselines import apply_minimum_norm, inverse_operator
-from skf_ref.study.head import find_testing_data, make_head
-from skf_ref.study.metrics import peak_localization_error
-from skf_ref.study.plots import plot_comparison
-from skf_ref.study.scenario import p20n20_scenario, simulate
+from skf_ref.study import (
+    apply_minimum_norm,
+    find_testing_data,
+    make_head,
+    p20n20_scenario,
+    peak_localization_error,
+    plot_comparison,
+    simulate,
+)
+from skf_ref.study._baselines import inverse_operator  # MNE's, as the study makes it
 
 conductor = "bem" if find_testing_data() is not None else "sphere"
 head = make_head(conductor, "anatomical")

@@ -22,8 +22,8 @@ from pathlib import Path
 PACKAGE = "skf_ref"
 
 
-#: The documented modules: the top level, the packages that declare the names of a layer,
-#: and the study's namespaces. Every other module is the implementation of one of them
+#: The documented modules: the top level and the packages that declare the names of a
+#: layer. Every other module is the implementation of one of them
 #: (private: a leading underscore, or listed as such by its package's docstring), and its
 #: names are documented where they are declared. tests/test_api.py holds the names of each.
 PUBLIC_MODULES = (
@@ -33,17 +33,6 @@ PUBLIC_MODULES = (
     "skf_ref.conformance",
     "skf_ref.datasets",
     "skf_ref.study",
-    "skf_ref.study.baselines",
-    "skf_ref.study.demo",
-    "skf_ref.study.detection",
-    "skf_ref.study.head",
-    "skf_ref.study.metrics",
-    "skf_ref.study.plots",
-    "skf_ref.study.regions",
-    "skf_ref.study.resolution",
-    "skf_ref.study.scenario",
-    "skf_ref.study.sources",
-    "skf_ref.study.sweep",
     "skf_ref.cli",
 )
 

@@ -11,7 +11,7 @@ from collections.abc import Iterable
 from importlib import metadata
 from typing import Any
 
-from ..version import __version__
+from .._version import __version__
 
 __all__ = ["PACKAGES", "blas_threads", "machine", "package_versions"]
 

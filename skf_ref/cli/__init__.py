@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from types import FrameType
     from typing import NoReturn
 
-__all__ = ["build_parser", "console", "main"]
+__all__ = ["main"]
 
 _INTERRUPTED = "skf-ref: interrupted; files already written are complete"
 
@@ -37,8 +37,8 @@ def build_parser() -> "argparse.ArgumentParser":
     argparse.ArgumentParser
         With a subcommand per command (``args.run(args)`` runs it).
     """
-    from ..version import __version__
-    from . import bids, compare, conformance, demo, reconstruct, sweep, sys_info
+    from .._version import __version__
+    from . import _bids, _compare, _conformance, _demo, _reconstruct, _sweep, _sys_info
     from ._args import Parser
 
     parser = Parser(
@@ -52,13 +52,13 @@ def build_parser() -> "argparse.ArgumentParser":
         "--debug", action="store_true", help="show the traceback of an error (for bug reports)"
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-    demo.add_parser(subparsers)
-    reconstruct.add_parser(subparsers)
-    bids.add_parser(subparsers)
-    sweep.add_parser(subparsers)
-    conformance.add_parser(subparsers)
-    compare.add_parser(subparsers)
-    sys_info.add_parser(subparsers)
+    _demo.add_parser(subparsers)
+    _reconstruct.add_parser(subparsers)
+    _bids.add_parser(subparsers)
+    _sweep.add_parser(subparsers)
+    _conformance.add_parser(subparsers)
+    _compare.add_parser(subparsers)
+    _sys_info.add_parser(subparsers)
     return parser
 
 

@@ -1,14 +1,13 @@
 """Conformance cases: small fixed problems and the dense path's answers, for any language.
 
-The names below (``__all__``) are the public API; the modules (``cases``, ``suite``,
-``case_files``, ``compare``, ``mistakes``, ``precision``, ``their_outputs``) are their
-implementation, whose paths may change.
+The names below (``__all__``) are the public API; the modules (leading underscore) are
+their implementation, whose paths may change.
 
 A lab that writes the SKF in MATLAB, C++, Julia or on a GPU runs these cases and compares
 its outputs with :func:`skf_ref.compare` (``skf-ref compare``). Each case is a few channels,
 sources and steps, generated once from a fixed seed. The suite is pinned and versioned
 (:data:`CONFORMANCE_VERSION`): its files are part of the package with their sha256 in
-``manifest.json`` (:mod:`skf_ref.conformance.suite`), :func:`cases` reads them and
+``manifest.json`` (:mod:`skf_ref.conformance._suite`), :func:`cases` reads them and
 :func:`export` copies them, byte for byte, with a runner for MATLAB/Octave and one for
 Python. docs/conformance.md describes the files for those who run them.
 
@@ -43,33 +42,18 @@ average-referenced case: ``L_unreferenced``, of which ``L`` is each column minus
 over the channels.
 """
 
-from .case_files import FORMATS, read_case, write_case
-from .cases import (
-    CONFORMANCE_VERSION,
-    EXTRAS,
-    FLOAT32_TOLERANCE,
-    INPUTS,
-    OUTPUTS,
-    TOLERANCE,
-    Case,
-    generate,
-)
-from .suite import SUITE, build, cases, export, manifest, verify
+from ._case_files import read_case, write_case
+from ._cases import CONFORMANCE_VERSION, FLOAT32_TOLERANCE, TOLERANCE, Case
+from ._suite import build, cases, export, manifest, verify
 
 __all__ = [
     "CONFORMANCE_VERSION",
-    "EXTRAS",
     "FLOAT32_TOLERANCE",
-    "FORMATS",
-    "INPUTS",
-    "OUTPUTS",
-    "SUITE",
     "TOLERANCE",
     "Case",
     "build",
     "cases",
     "export",
-    "generate",
     "manifest",
     "read_case",
     "verify",

@@ -1,7 +1,7 @@
 """The conformance cases' definitions: each case's inputs, from its own seed.
 
 Each builder takes a generator seeded with ``(11, seed)`` and returns the case's inputs (and
-extras); :func:`skf_ref.conformance.cases.generate` computes the expected outputs. A
+extras); :func:`skf_ref.conformance._cases.generate` computes the expected outputs. A
 changed builder is a new suite version (:data:`~skf_ref.conformance.CONFORMANCE_VERSION`).
 """
 

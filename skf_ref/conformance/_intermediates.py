@@ -228,7 +228,7 @@ INTERMEDIATES = (
     ),
 )
 
-#: The names of every intermediate (the outputs are :data:`~skf_ref.conformance.OUTPUTS`).
+#: The names of every intermediate (the outputs are ``OUTPUTS``).
 NAMES = tuple(variable.name for variable in INTERMEDIATES if variable.name != "log_likelihood")
 
 _SMOOTHED_X = Variable(

@@ -1,6 +1,6 @@
 """Which known mistakes explain their outputs, by the rule of :mod:`._distances`.
 
-Every mistake of :mod:`skf_ref.conformance.mistakes` that applies to the case is computed
+Every mistake of :mod:`skf_ref.conformance._mistakes` that applies to the case is computed
 (once per case), and measured against their outputs output by output, in the measure
 between two sets (:func:`~skf_ref.conformance._distances.distance`): the log-likelihood
 over the sizes of its terms, so that one near zero does not dominate. A mistake is the
@@ -21,7 +21,7 @@ import numpy as np
 
 from .._utils.checks import InputError
 from ._distances import distance, explains, reproduces
-from .mistakes import SUSPECTS
+from ._mistakes import SUSPECTS
 
 __all__ = ["diagnose", "distances"]
 

@@ -23,15 +23,12 @@ when a function needs them.
 """
 
 from ._covariance import baseline_noise_cov
-from ._fecnn import FECNN_SUBJECTS, load_fecnn_evoked, load_fecnn_forward
+from ._fecnn import load_fecnn_evoked, load_fecnn_forward
 from ._forward import forward_from_leadfield, sphere_forward
-from ._paths import DATA_ENV, FECNN_FILES, data_path
+from ._paths import data_path
 from ._sep256 import load_sep256_evoked
 
 __all__ = [
-    "DATA_ENV",
-    "FECNN_FILES",
-    "FECNN_SUBJECTS",
     "baseline_noise_cov",
     "data_path",
     "forward_from_leadfield",

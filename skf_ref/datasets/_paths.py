@@ -101,7 +101,7 @@ def _named(path: str | os.PathLike, name: str) -> Path:
         raise InputError(
             f"{name} must be a folder holding fecnn/ with the feCNN files at the repository's "
             f"paths, got {str(path)!r}, which lacks fecnn/{missing[0]}: put the files there "
-            f"(the {len(FECNN_FILES)} of skf_ref.datasets.FECNN_FILES, from feCNN at commit "
+            f"(the {len(FECNN_FILES)} of FECNN_FILES, from feCNN at commit "
             f"{FECNN_COMMIT[:7]}), or {instead} and call "
             "skf_ref.datasets.data_path(download=True) to download them to skf_ref's cache "
             "(a folder named is never filled by a download)"

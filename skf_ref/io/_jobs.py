@@ -1,5 +1,5 @@
-"""``n_jobs`` of :func:`~skf_ref.io.apply.apply_skf_epochs` and
-:func:`~skf_ref.io.raw.apply_skf_raw`: what is independent, run as joblib's jobs.
+"""``n_jobs`` of :func:`~skf_ref.io._apply.apply_skf_epochs` and
+:func:`~skf_ref.io._raw.apply_skf_raw`: what is independent, run as joblib's jobs.
 
 - Epochs are independent runs of the SKF over one operator: they are cut into one run of
   consecutive epochs per job, each job sent the operator once (its covariance recursion is

@@ -44,5 +44,21 @@ _HOMES = {
     "tune": "_tuning",
 }
 
-__all__ = sorted(_HOMES)
+#: Names the top level exports (``skf_ref.reconstruct``): declared there, reachable here
+#: too, since the layers above import the method's names from this package.
+_AT_THE_TOP = {
+    "PAPER_SETTING",
+    "RECOMMENDED_SETTING",
+    "Reconstruction",
+    "StandardizedKalmanFilter",
+    "ar1_priors",
+    "evolution_variance",
+    "lead_field_amplitude",
+    "prior_variance",
+    "priors_from_snr",
+    "reconstruct",
+    "tune",
+}
+
+__all__ = sorted(set(_HOMES) - _AT_THE_TOP)
 __getattr__, __dir__ = attach(__name__, _HOMES)

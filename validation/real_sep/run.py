@@ -4,6 +4,7 @@ import numpy as np
 import pandas as pd
 
 from skf_ref import datasets
+from skf_ref.datasets._fecnn import FECNN_SUBJECTS
 
 from . import criteria, neck
 from .geometry import make_recording, measure
@@ -88,7 +89,7 @@ def sensor_checks(data=None):
     except FileNotFoundError:
         return None
     rows = []
-    for subject in datasets.FECNN_SUBJECTS:
+    for subject in FECNN_SUBJECTS:
         evoked = datasets.load_fecnn_evoked(subject, folder)
         window = np.flatnonzero((evoked.times > 0.015) & (evoked.times < 0.030))
         cp3, fz = (evoked.ch_names.index(name) for name in ("CP3", "Fz"))

@@ -26,7 +26,7 @@ def _parser():
 def main(argv=None):
     """Run the study and write the report; returns the process's exit status."""
     args = _parser().parse_args(argv)
-    from skf_ref.study.head import cache_dir, find_testing_data
+    from skf_ref.study._head import cache_dir, find_testing_data
 
     root = None
     if not args.quick:

@@ -140,7 +140,7 @@ def _interpolation(source_info, target_info):
 
 @functools.lru_cache(maxsize=2)
 def _eeg_head(montage, root, quick):
-    from skf_ref.study.head import make_head
+    from skf_ref.study._head import make_head
 
     if quick:
         return make_head("sphere", "anatomical", montage="biosemi64")
@@ -151,7 +151,7 @@ def _meg_forward(head, root):
     """MNE's MEG forward on the head's source space (cached beside its EEG forward)."""
     import mne
 
-    from skf_ref.study.head import cache_dir
+    from skf_ref.study._head import cache_dir
 
     bads = mne.read_cov(Path(root) / COV, verbose=False)["bads"]
     raw_info = _raw(root).info

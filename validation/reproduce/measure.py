@@ -21,7 +21,7 @@ class Geometry:
     @classmethod
     def of(cls, head):
         """From a cortex + thalamus head."""
-        from skf_ref.study.sources import position_labels
+        from skf_ref.study._sources import position_labels
 
         labels = np.asarray(position_labels(head)).astype(str)
         return cls(
@@ -45,7 +45,7 @@ def _error(a, distance, mask=None):
 
 
 def _emd(a, geometry, points, weights):
-    from skf_ref.study.metrics import earth_movers_distance
+    from skf_ref.study._metrics import earth_movers_distance
 
     if not np.any(a > 0):
         return np.nan

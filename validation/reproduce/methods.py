@@ -186,7 +186,7 @@ def irmxne(condition, Y, design):
     """MNE's irMxNE (``mixed_norm``, 10 reweightings, alpha 25 % of alpha_max)."""
     from mne.inverse_sparse import mixed_norm
 
-    from skf_ref.study.baselines import amplitude_on_positions
+    from skf_ref.study._baselines import amplitude_on_positions
 
     evoked = _evoked(condition, Y, design.sfreq, design.tmin)
     with warnings.catch_warnings():

@@ -54,7 +54,7 @@ def _interleave(a, b):
 
 def draw(head, quick):
     """Both sets' sources: ``{set: {"thalamic"|"cortical"|"left"|"right": (points, orients)}}``."""
-    from skf_ref.study.sources import draw_sources, position_labels
+    from skf_ref.study._sources import draw_sources, position_labels
 
     labels = np.asarray(position_labels(head)).astype(str)
     sizes = QUICK_SIZES if quick else SIZES
