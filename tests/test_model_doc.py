@@ -187,3 +187,118 @@ def test_the_worked_example_uses_public_names_and_links_the_numpy_example(text):
         assert not any(part.startswith("_") for part in module.split(".")), module
     assert "{doc}`auto_examples/plot_skf_by_hand`" in section
     assert (DOC.parent / "examples" / "plot_skf_by_hand.py").is_file()
+
+
+# --- section 9, the equation-to-code map: every name it gives the dense and filterpy paths
+# exists and is called when that path runs (issue 45) ---------------------------------------
+
+_MAP_PATHS = {1: "dense", 2: "filterpy"}  # the map's columns
+
+
+def _map_rows(text):
+    """The cells of section 9's equation table, one list per row (header left out)."""
+    section = text[text.index("\n## 9. ") :]
+    table = section[section.index("| equation |") :].split("\n\n")[0].splitlines()[2:]
+    return [[c.strip() for c in re.split(r"(?<!\\)\|", line)[1:-1]] for line in table]
+
+
+def _named(cell):
+    """The dotted names in a cell: `dense.step`, `KalmanFilter.update` (an argument after a
+    name, `KalmanFilter.update(None)`, left out)."""
+    return re.findall(r"`([A-Za-z_]\w*(?:\.[A-Za-z_]\w*)+)(?:\([^`]*\))?`", cell)
+
+
+def _resolve_private(name):
+    """:func:`_resolve`, with a module of ``skf_ref.method`` written without its underscore
+    (``standardization.inverse_sqrt``), as section 9 writes them."""
+    head, *rest = name.split(".")
+    for package in PACKAGES:
+        for module in (head, f"_{head}"):
+            if importlib.util.find_spec(f"{package}.{module}") is not None:
+                return _resolve(".".join([*package.split("."), module, *rest]))
+    return _resolve(name)
+
+
+def _code(obj):
+    """The code object a call of ``obj`` runs (a function, a method or a property)."""
+    obj = obj.fget if isinstance(obj, property) else obj
+    return obj.__code__
+
+
+def _map_names(text, column):
+    """The names the map gives a path's column; "the same" takes the dense column's (but the
+    dense module's own functions)."""
+    names = set()
+    for cells in _map_rows(text):
+        cell = cells[column]
+        names |= set(_named(cell))
+        if column != 1 and cell.startswith("the same"):
+            names |= {n for n in _named(cells[1]) if not n.startswith("dense.")}
+    return names
+
+
+def _called_on_path(path):
+    """The code objects run by every smoother and standardization of one path, with a
+    missing step (the paper's smoother on complete data)."""
+    import sys
+
+    import skf_ref
+
+    rng = np.random.default_rng(9)
+    L, Y = rng.standard_normal((5, 6)), rng.standard_normal((5, 4))
+    gap = Y.copy()
+    gap[:, 1] = np.nan
+    called = set()
+
+    def profile(frame, event, arg):
+        if event == "call":
+            called.add(frame.f_code)
+
+    runs = [
+        (data, smoother, standardize)
+        for smoother in (None, "rts-standardized", "rts-state", "rts-smoothed-weights")
+        for data in ((Y,) if smoother == "rts-standardized" else (Y, gap))
+        for standardize in ("column", "position")
+    ]
+    sys.setprofile(profile)
+    try:
+        for data, smoother, standardize in runs:
+            skf_ref.reconstruct(
+                L,
+                data,
+                noise_std=1.0,
+                theta0=1.0,
+                q=0.1,
+                exponent=1.25,
+                smoother=smoother,
+                method=path,
+                standardize=standardize,
+                n_orient=3,
+            )
+    finally:
+        sys.setprofile(None)
+    return called
+
+
+@pytest.mark.parametrize("column", sorted(_MAP_PATHS))
+def test_section_9_names_exist_and_are_called_on_their_path(text, column):
+    names = _map_names(text, column)
+    assert len(names) >= 8, names
+    called = _called_on_path(_MAP_PATHS[column])
+    for name in sorted(names):
+        try:
+            code = _code(_resolve_private(name))
+        except (AttributeError, ModuleNotFoundError, StopIteration) as err:
+            pytest.fail(f"docs/model.md §9 names `{name}`, which does not exist ({err})")
+        assert code in called, (
+            f"docs/model.md §9 names `{name}` for the {_MAP_PATHS[column]} path, which does not "
+            "call it"
+        )
+
+
+def test_section_9_map_is_read_whole(text):
+    # the parser's premise: the table's rows, each with its four columns
+    rows = _map_rows(text)
+    assert len(rows) >= 12 and all(len(cells) == 4 for cells in rows)
+    assert "dense.step" in _map_names(text, 1)
+    assert "filterpy_skf.StandardizedKalmanFilter.update" in _map_names(text, 2)

@@ -78,10 +78,9 @@ def expected_intermediates(case: Any) -> dict[str, Any]:
     block = int(p.get("n_orient", 1)) if p.get("standardize") == "position" else 1
     f = dense.kalman_filter(model.L, Y, model.R, A, Q, P0, p["exponent"], block)
     S, K = [], []
-    for t in range(Y.shape[1]):
-        _, _, K_t, S_t, _ = dense.update(f["x_pred"][t], f["P_pred"][t], Y[:, t], model.L, model.R)
-        S.append(S_t)
-        K.append(K_t)
+    for P_pred in f["P_pred"]:  # S_t and K_t of §2.2 eq. (5), as the dense path's step
+        S.append(model.L @ P_pred @ model.L.T + model.R)
+        K.append(linalg.cho_solve(linalg.cho_factor(S[-1], lower=True), model.L @ P_pred).T)
     found = {"theta0": case.inputs["theta0"], "q": case.inputs["q"]}
     found |= {name: _steps_last(f[name]) for name in ("x_pred", "P_pred", "P_filt", "w")}
     found |= {"S": _steps_last(np.array(S)), "K": _steps_last(np.array(K))}

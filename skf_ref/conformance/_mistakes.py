@@ -22,7 +22,9 @@ from ..method import StateSpaceModel, ar1_priors, priors_from_snr
 from ..method._outputs import ARRAYS
 from ..method._paths import dense
 from ..method._priors import CONVENTIONS
-from ..method._standardization import inverse_sqrt, raw_weights, standardize
+from ..method._result import stored_result
+from ..method._settings import Settings
+from ..method._standardization import inverse_sqrt, standardize
 
 if TYPE_CHECKING:
     from ._cases import Case
@@ -73,8 +75,9 @@ def _outputs(filtered, model, case, smoother=None):
     exponent, block = filtered["exponent"], _block(case)
     A, Q, P0 = (model.matrix(name) for name in ("transition", "q", "theta0"))
     x, z = dense.smooth(filtered, smoother, A, exponent, block, prior=(Q, P0))
-    standardization = (case.inputs.get("standardize", "column"), block if block > 1 else None)
-    rec = dense.result(filtered, x, z, model, exponent, smoother, "suspect", standardization)
+    standardize, n_orient = case.inputs.get("standardize", "column"), block if block > 1 else None
+    settings = Settings(exponent, smoother, standardize=standardize, n_orient=n_orient)
+    rec = stored_result(filtered, x, z, model, settings, "suspect")
     return {**{name: getattr(rec, name) for name in ARRAYS}, "log_likelihood": rec.log_likelihood}
 
 
@@ -300,18 +303,18 @@ def no_first_prediction(case: Case) -> dict[str, Any] | None:
     for key in ("P_filt", "P_pred", "P_pred_inv_sqrt"):
         f[key] = np.empty((T, n, n))
     f["log_likelihood"], f["exponent"] = 0.0, case.inputs["exponent"]
-    x_pred, P_pred = np.zeros(n), P0  # the mistake: the first update takes P_0 as P_{1|0}
+    x, P = np.zeros(n), P0
     for t in range(T):
-        x, P, K, S, log_likelihood = dense.update(x_pred, P_pred, Y[:, t], L, R)
-        P_pred_inv_sqrt = inverse_sqrt(P_pred)
-        w = raw_weights(P_pred_inv_sqrt, K, S)
-        weights, z = standardize(w, P_pred_inv_sqrt @ x, case.inputs["exponent"])
-        f["log_likelihood"] += log_likelihood
-        step = dict(x_filt=x, x_pred=x_pred, z=z, w=w, weights=weights, P_filt=P)
-        step |= dict(P_pred=P_pred, P_pred_inv_sqrt=P_pred_inv_sqrt)
-        for key, value in step.items():
-            f[key][t] = value
-        x_pred, P_pred = dense.predict(x, P, A, Q)
+        # the mistake: no prediction before the first update (A = I, Q = 0), P_{1|0} = P_0
+        A_t, Q_t = (np.eye(n), np.zeros((n, n))) if t == 0 else (A, Q)
+        step = dense.step(x, P, Y[:, t], L, R, A_t, Q_t, case.inputs["exponent"])
+        x, P = step["x"], step["P"]
+        f["log_likelihood"] += step["log_likelihood"]
+        f["weights"][t] = step["W"].ravel()
+        for key, name in (("x_filt", "x"), ("P_filt", "P")):
+            f[key][t] = step[name]
+        for key in ("x_pred", "z", "w", "P_pred", "P_pred_inv_sqrt"):
+            f[key][t] = step[key]
     f["W"] = f["weights"][:, :, None, None]  # W_t's 1 x 1 blocks
     return _outputs(f, model, case)
 

@@ -19,14 +19,9 @@ changes with its scale, and so with ``nave``).
 
 from __future__ import annotations
 
-import copy
-import warnings
 from typing import TYPE_CHECKING
 
-import numpy as np
-
-from .._utils.checks import InputError, InputTypeError, check_real, describe
-from .._utils.extras import optional
+from ..io.noise_cov import baseline_covariance
 
 if TYPE_CHECKING:
     import mne
@@ -38,6 +33,8 @@ def baseline_noise_cov(
     evoked: mne.Evoked, tmin: float | None = None, tmax: float = 0.0, *, reg: float = 0.1
 ) -> mne.Covariance:
     """The noise covariance of one trial, from an average's pre-stimulus samples.
+
+    :func:`skf_ref.io.baseline_covariance` on the EEG channels, regularized by default.
 
     Parameters
     ----------
@@ -62,6 +59,7 @@ def baseline_noise_cov(
     Examples
     --------
     >>> import mne
+    >>> import numpy as np
     >>> info = mne.create_info(["a", "b", "c"], 1000.0, "eeg")
     >>> rng = np.random.default_rng(0)
     >>> evoked = mne.EvokedArray(rng.standard_normal((3, 200)) * 1e-6, info, tmin=-0.1,
@@ -71,34 +69,4 @@ def baseline_noise_cov(
     >>> bool(np.allclose(cov.data, 100 * baseline @ baseline.T / baseline.shape[1]))
     True
     """
-    mne = optional("mne", "mne", "baseline_noise_cov")
-    if not isinstance(evoked, mne.Evoked):
-        raise InputTypeError(f"evoked must be an mne.Evoked, got {describe(evoked)}")
-    reg = check_real("reg", reg, nonnegative=True)
-    first = evoked.times[0] if tmin is None else check_real("tmin", tmin)
-    last = check_real("tmax", tmax)
-    window = (evoked.times >= first - 1e-9) & (evoked.times <= last + 1e-9)
-    picks = mne.pick_types(evoked.info, meg=False, eeg=True, exclude="bads")
-    if window.sum() < 2 or len(picks) == 0:
-        raise InputError(
-            f"tmin, tmax must hold at least 2 samples of EEG channels, got {window.sum()} "
-            f"samples in [{first}, {last}] s of an evoked from {evoked.times[0]:.4g} s"
-        )
-    samples = evoked.data[np.ix_(picks, np.flatnonzero(window))]
-    names = [evoked.ch_names[i] for i in picks]
-    cov = mne.Covariance(
-        evoked.nave * (samples @ samples.T) / samples.shape[1],
-        names,
-        bads=[],
-        projs=copy.deepcopy(evoked.info["projs"]),
-        nfree=samples.shape[1],
-        verbose=False,
-    )
-    if reg == 0:
-        return cov
-    info = mne.pick_info(evoked.info, picks)
-    with warnings.catch_warnings():
-        # MNE may warn of the empirical estimate's low rank: the reason for the
-        # regularization (module docstring)
-        warnings.filterwarnings("ignore", message=".*rank.*", category=RuntimeWarning)
-        return mne.cov.regularize(cov, info, eeg=reg, rank="full", verbose=False)
+    return baseline_covariance(evoked, tmin, tmax, reg=reg, meg=False, eeg=True)

@@ -310,9 +310,9 @@ def apply_skf_epochs(
         )
     if time_constant_ms is not None:  # refused now, not at the first epoch
         time_constant_ms = check_time_constant(time_constant_ms)
-    settings: dict[str, Any] = dict(
-        exponent=exponent, smoother=smoother, method=method, standardize=standardize, nave=nave
-    )
+    # checked once here; each epoch is run on the checked settings
+    checked = operator._check_settings(exponent, smoother, method, standardize)
+    settings: dict[str, Any] = dict(settings=checked, nave=nave)
     settings |= dict(time_constant_ms=time_constant_ms, sfreq=epochs.info["sfreq"])
     tmin, tstep = float(epochs.times[0]), 1.0 / epochs.info["sfreq"]
     with verbosity(verbose):
@@ -326,7 +326,7 @@ def apply_skf_epochs(
     def estimates() -> Iterator[Any]:
         with verbosity(verbose):
             for data in selected():
-                rec = operator.reconstruct(data, **settings)
+                rec = operator._reconstruct(data, **settings)
                 yield operator.to_stc(rec, tmin, tstep, pick_ori)
 
     if return_generator or jobs.local:

@@ -31,7 +31,7 @@ def _epochs_part(operator, data, settings, tmin, tstep, pick_ori, verbose):
     """One job's epochs: the SKF on each, as source estimates."""
     with verbosity(verbose):
         return [
-            operator.to_stc(operator.reconstruct(epoch, **settings), tmin, tstep, pick_ori)
+            operator.to_stc(operator._reconstruct(epoch, **settings), tmin, tstep, pick_ori)
             for epoch in data
         ]
 

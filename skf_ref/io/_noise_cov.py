@@ -12,6 +12,8 @@ error naming ``noise_cov``.
 
 from __future__ import annotations
 
+import copy
+import warnings
 from typing import Any
 
 import numpy as np
@@ -211,20 +213,36 @@ def baseline_matrix(
 
 
 def baseline_covariance(
-    evoked: Any, *, meg: bool | str | None = None, eeg: bool | None = None
+    evoked: Any,
+    tmin: float | None = None,
+    tmax: float = 0.0,
+    *,
+    reg: float = 0.0,
+    meg: bool | str | None = None,
+    eeg: bool | None = None,
 ) -> Any:
-    """The noise covariance of one trial, from an evoked's pre-stimulus samples (t <= 0).
+    """The noise covariance of one trial, from an evoked's samples in a window of noise.
 
     The samples of an average give the covariance *of the average*: with ``evoked.nave``
     trials averaged, that of one trial is ``nave`` times larger. The covariance returned is
-    that of one trial, as ``mne.compute_covariance(epochs)`` gives it, so that the
-    operator's division by ``nave`` (:meth:`skf_ref.SKFOperator.reconstruct`) whitens this
-    evoked with the covariance of its own baseline, whatever its ``nave``.
+    that of one trial, as ``mne.compute_covariance(epochs)`` gives it (MNE's convention),
+    so that the operator's division by ``nave`` (:meth:`skf_ref.SKFOperator.reconstruct`)
+    and MNE's ``apply_inverse`` whiten this evoked with the covariance of its own baseline,
+    whatever its ``nave``. About 0 is the mean of noise after averaging, so it is not
+    subtracted.
 
     Parameters
     ----------
     evoked : mne.Evoked
-        With at least as many samples at t <= 0 as good channels of the types picked.
+    tmin, tmax : float
+        The window of noise, in seconds (``tmin=None``: from the first sample; default
+        every sample at t <= 0). It should end before the stimulus and its artifact; a
+        zero-phase filter spreads both backwards in time.
+    reg : float
+        MNE's regularization (``mne.cov.regularize`` with this fraction for every channel
+        type, in the complement of the projectors, ``rank="full"``): the fraction of the
+        mean variance added on the diagonal; 0 (default) for the empirical estimate alone,
+        which then needs at least as many samples as channels.
     meg : None or bool or "mag" or "grad"
     eeg : None or bool
         The channels to estimate it for (as :func:`skf_ref.make_skf_operator` picks them;
@@ -233,20 +251,55 @@ def baseline_covariance(
     Returns
     -------
     mne.Covariance
-        ``nave Y_0 Y_0^T / n`` over those samples, with the evoked's projectors.
+        ``nave Y Y^T / n`` over the window's ``n`` samples, regularized if asked, with the
+        evoked's projectors; ``nfree`` is ``n``.
+
+    Raises
+    ------
+    skf_ref.InputError
+        The window holds fewer than 2 samples, or no channel is picked, or (``reg=0``)
+        fewer samples than channels.
     """
     mne = optional("mne", "mne", "baseline_covariance")
     if not isinstance(evoked, mne.Evoked):
         raise InputTypeError(f"evoked must be an mne.Evoked, got {describe(evoked)}")
+    reg = check_real("reg", reg, nonnegative=True)
+    first = evoked.times[0] if tmin is None else check_real("tmin", tmin)
+    last = check_real("tmax", tmax)
+    window = (evoked.times >= first - 1e-9) & (evoked.times <= last + 1e-9)
     meg = True if meg is None else meg
     eeg = True if eeg is None else eeg
     picks = mne.pick_types(evoked.info, meg=meg, eeg=eeg, exclude="bads")
-    average = baseline_matrix(evoked.data[picks], evoked.times)
-    return mne.Covariance(
-        evoked.nave * average,
+    n = int(window.sum())
+    if n < 2 or len(picks) == 0:
+        raise InputError(
+            f"tmin, tmax must hold at least 2 samples of the channels picked, got {n} samples "
+            f"in [{first}, {last}] s of an evoked from {evoked.times[0]:.4g} s, and "
+            f"{len(picks)} channels"
+        )
+    if reg == 0 and n < len(picks):
+        raise InputError(
+            "a baseline covariance without regularization needs at least as many "
+            f"pre-stimulus samples (in [{first:.4g}, {last:.4g}] s) as channels, {len(picks)}, "
+            f"got {n}: give noise_cov as an mne.Covariance (e.g. mne.compute_covariance("
+            "epochs, tmax=0)) or noise_std"
+        )
+    samples = evoked.data[np.ix_(picks, np.flatnonzero(window))]
+    cov = mne.Covariance(
+        evoked.nave * (samples @ samples.T / n),
         [evoked.ch_names[i] for i in picks],
         bads=[],
-        projs=evoked.info["projs"],
-        nfree=int(np.sum(evoked.times <= 0)),
+        projs=copy.deepcopy(evoked.info["projs"]),
+        nfree=n,
         verbose=False,
     )
+    if reg == 0:
+        return cov
+    info = mne.pick_info(evoked.info, picks)
+    with warnings.catch_warnings():
+        # MNE may warn of the empirical estimate's low rank: the reason for the
+        # regularization
+        warnings.filterwarnings("ignore", message=".*rank.*", category=RuntimeWarning)
+        return mne.cov.regularize(
+            cov, info, mag=reg, grad=reg, eeg=reg, rank="full", verbose=False
+        )

@@ -18,7 +18,6 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._utils import memory
 from .._utils.checks import (
     InputError,
     check_array,
@@ -37,11 +36,11 @@ from ..method import (
     TuneResult,
     ar1_priors,
     priors_from_snr,
-    reconstruct,
 )
 from ..method._model import missing_steps
+from ..method._reconstruct import run_checked
 from ..method._search import TimeConstant, check_searched, check_time_constant
-from ..method._settings import check_gaps, check_settings
+from ..method._settings import Settings, check_gaps, check_settings
 from ..method._tuning import choose_priors
 from ._channels import (
     check_average_referenced,
@@ -278,13 +277,11 @@ class SKFOperator:
                 )
         return self._prior_cache[key]
 
-    def _model(self, n_times: int, theta0: float, q: float, transition: float) -> SpectralModel:
-        """The spectral model for ``n_times`` samples and these priors; the last few kept."""
-        key = (n_times, theta0, q, transition)
+    def _model(self, n_times: int, model: StateSpaceModel) -> SpectralModel:
+        """The spectral model of ``model`` (this lead field, scalar priors) for ``n_times``
+        samples; the last few kept."""
+        key = (n_times, model.theta0, model.q, model.transition)
         if key not in self._models:
-            model = StateSpaceModel.create(
-                self.leadfield, noise_std=1.0, theta0=theta0, q=q, transition=transition
-            )
             self._models[key] = SpectralModel(model, n_times, basis=self._basis)
             while len(self._models) > _MODELS_KEPT:
                 self._models.popitem(last=False)  # the least recently used
@@ -433,15 +430,57 @@ class SKFOperator:
             ``z``, the weights, the log-likelihood and the priors do not depend on ``nave``;
             ``x`` is the state of the data scaled by ``sqrt(nave)`` (below).
         """
-        data = check_array("data", data, (len(self.ch_names), "n_times"), finite=False)
-        missing = missing_steps(data, "data")  # columns of NaN: bad segments
+        settings = self._check_settings(exponent, smoother, method, standardize)
+        return self._reconstruct(
+            data,
+            settings,
+            nave=nave,
+            memory_limit=memory_limit,
+            time_constant_ms=time_constant_ms,
+            sfreq=sfreq,
+        )
+
+    def _check_settings(
+        self,
+        exponent: float = 0.5,
+        smoother: str | None = "rts-smoothed-weights",
+        method: str = "auto",
+        standardize: str | None = None,
+    ) -> Settings:
+        """The settings of :meth:`reconstruct` checked for this operator, once per call.
+
+        Parameters
+        ----------
+        exponent, smoother, method, standardize
+            As :meth:`reconstruct`.
+
+        Returns
+        -------
+        skf_ref.method.Settings
+        """
         standardize = self.default_standardize if standardize is None else standardize
-        settings = check_settings(
+        return check_settings(
             exponent, smoother, method, standardize, self.n_components, self.n_sources
         )
+
+    def _reconstruct(
+        self,
+        data: ArrayLike,
+        settings: Settings,
+        *,
+        nave: float = 1,
+        memory_limit: float | None = None,
+        time_constant_ms: float | str | tuple[float, float] | None = None,
+        sfreq: float | None = None,
+    ) -> Reconstruction:
+        """:meth:`reconstruct` with settings checked (:meth:`_check_settings`), not again:
+        the kernel of every public route that applies the operator."""
+        data = check_array("data", data, (len(self.ch_names), "n_times"), finite=False)
+        missing = missing_steps(data, "data")  # columns of NaN: bad segments
         check_gaps(settings.smoother, missing)
-        exponent, smoother, method = settings.exponent, settings.smoother, settings.method
         nave = check_real("nave", nave, positive=True)
+        if memory_limit is not None:
+            memory_limit = check_real("memory_limit", memory_limit, positive=True)
         ep, tau = self.ep_snr_db, self.time_constant_ms
         if time_constant_ms is not None:  # the AR(1) prior in place of the operator's
             ep, tau = None, check_time_constant(time_constant_ms)
@@ -459,7 +498,7 @@ class SKFOperator:
             whitened *= np.sqrt(nave)
         if not np.all(np.isfinite(whitened[:, ~missing])):
             raise InputError("the whitened data are not finite: noise_cov is out of range")
-        n, T = self.n_sources, whitened.shape[1]
+        T = whitened.shape[1]
         tuning = None
         if all(isinstance(v, float | None) for v in (self.pm_snr_db, ep, tau)):
             theta0, q, transition = self._priors(T, ep, tau, cast(float, rate))
@@ -475,26 +514,17 @@ class SKFOperator:
             )
             if tuning is not None:  # something was searched
                 logger.info("SKF: priors chosen by the data: %s", _describe_tuning(tuning))
-        if method in ("auto", "spectral"):  # the operator's SVD (and recursions) again
-            memory.check_reconstruction("spectral", smoother, n, self.rank, T, memory_limit)
-            rec = self._model(T, theta0, q, transition).apply(
-                whitened, exponent, smoother, memory_limit, standardize, self.n_components
-            )
-        else:
-            rec = reconstruct(
-                self.leadfield,
-                whitened,
-                noise_std=1.0,
-                theta0=theta0,
-                q=q,
-                transition=transition,
-                exponent=exponent,
-                smoother=smoother,
-                method=method,
-                memory_limit=memory_limit,
-                standardize=settings.standardize,
-                n_orient=self.n_components,
-            )
+        model = StateSpaceModel.create(
+            self.leadfield, noise_std=1.0, theta0=theta0, q=q, transition=transition
+        )
+        # "auto" and "spectral" reuse the operator's SVD (and recursions)
+        rec = run_checked(
+            model,
+            model.check_data(whitened),
+            settings,
+            memory_limit,
+            prepared=lambda: self._model(T, model),
+        )
         return rec.with_tuning(tuning)
 
     def to_stc(

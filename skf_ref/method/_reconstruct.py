@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -17,7 +18,7 @@ from ._result import Reconstruction
 from ._settings import Settings, check_gaps, check_settings
 from ._standardization import check_positions_seen
 
-__all__ = ["reconstruct", "slow_path_seconds"]
+__all__ = ["reconstruct", "run_checked", "slow_path_seconds"]
 
 #: The speed assumed for the dense and filterpy paths' estimate (operations a second).
 #: Each of their steps is an eigendecomposition and products of (n, n) matrices, about
@@ -229,18 +230,39 @@ def reconstruct(
     if memory_limit is not None:
         memory_limit = check_real("memory_limit", memory_limit, positive=True)
     check_gaps(settings.smoother, missing_steps(data))
-    return _run(model, data, settings, memory_limit)
+    return run_checked(model, data, settings, memory_limit)
 
 
-def _run(
+def run_checked(
     model: StateSpaceModel,
     Y: NDArray[np.float64],
     settings: Settings,
     memory_limit: float | None,
+    prepared: Callable[[], spectral.SpectralModel] | None = None,
 ) -> Reconstruction:
-    """Pick the path, check the memory (and the time) it needs, and run it."""
-    exponent, smoother, method = settings.exponent, settings.smoother, settings.method
-    blocks = (settings.standardize, settings.n_orient)
+    """Pick the path, check the memory (and the time) it needs, and run it.
+
+    The one kernel behind :func:`reconstruct` and :meth:`skf_ref.SKFOperator.reconstruct`:
+    everything it is given is checked, and nothing is checked again.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    Y : ndarray, shape (n_channels, n_times)
+        Checked by ``model.check_data``.
+    settings : Settings
+        Checked by :func:`check_settings` and :func:`check_gaps`.
+    memory_limit : float or None
+        Checked.
+    prepared : callable, optional
+        Returns the spectral path's prepared model (an operator's, which keeps its SVD and
+        recursions); by default one is made for ``model``.
+
+    Returns
+    -------
+    Reconstruction
+    """
+    smoother, method = settings.smoother, settings.method
     problem = model.isotropic_problem()
     if method == "auto":
         method = "dense" if problem else "spectral"
@@ -253,10 +275,12 @@ def _run(
             check_positions_seen(model.L, model.R, settings.block)
     memory.check_reconstruction(method, smoother, n, m, T, memory_limit)
     if method == "spectral":
-        return spectral.run(model, Y, exponent, smoother, memory_limit, *blocks)
+        if prepared is None:
+            return spectral.run(model, Y, settings, memory_limit)
+        return prepared().checked_apply(Y, settings, memory_limit)
     path = kalman.run if method == "filterpy" else dense.run
     try:
-        return path(model, Y, exponent, smoother, *blocks)
+        return path(model, Y, settings)
     except np.linalg.LinAlgError as err:
         hint = (
             ""

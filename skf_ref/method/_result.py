@@ -17,10 +17,12 @@ from numpy.typing import ArrayLike, NDArray
 from .._utils.checks import InputError, check_array, check_choice, check_int
 from .._utils.reprs import html_table
 from .._utils.threads import map_threads
+from ._model import StateSpaceModel
 from ._outputs import ARRAYS, LazyOutputs
+from ._settings import Settings
 from ._standardization import overflow_cause
 
-__all__ = ["Reconstruction", "amplitude_from_components", "readonly"]
+__all__ = ["Reconstruction", "amplitude_from_components", "readonly", "stored_result"]
 
 #: Bytes of z per work item of the amplitude's worker threads.
 _AMPLITUDE_BYTES = 4 * 2**20
@@ -454,3 +456,52 @@ class Reconstruction:
                 f"n_components must divide n_sources={self.n_sources}, got {n_components!r}"
             )
         return amplitude_from_components(self.z_filtered if filtered else self.z, n_components)
+
+
+def stored_result(
+    filtered: dict[str, Any],
+    x: NDArray[np.float64],
+    z: NDArray[np.float64],
+    model: StateSpaceModel,
+    settings: Settings,
+    path: str,
+) -> Reconstruction:
+    """The result of a path that stores every covariance (dense, filterpy).
+
+    Parameters
+    ----------
+    filtered : dict
+        The filter's output, time-major: ``z``, ``x_filt``, ``w``, ``weights`` of shape
+        (n_times, n_sources), ``log_likelihood``, and ``missing`` (n_times,) if any.
+    x, z : ndarray, shape (n_times, n_sources)
+        The (smoothed) state and standardized estimate.
+    model : StateSpaceModel
+    settings : Settings
+        The run's (exponent, smoother, standardization).
+    path : str
+        The path's name, as the result reports it.
+
+    Returns
+    -------
+    Reconstruction
+    """
+    return Reconstruction(
+        z=z.T,
+        x=x.T,
+        z_filtered=filtered["z"].T,
+        x_filtered=filtered["x_filt"].T,
+        weights=filtered["weights"].T,
+        log_likelihood=filtered["log_likelihood"],
+        n_sources=model.n_sources,
+        n_times=len(z),
+        exponent=settings.exponent,
+        smoother=settings.smoother,
+        method=path,
+        theta0=model.theta0,
+        q=model.q,
+        transition=model.transition,
+        standardize=settings.standardize,
+        n_orient=settings.n_orient,
+        missing=filtered.get("missing"),  # None: every step observed
+        min_raw_weight=float(np.nanmin(filtered["w"])),
+    )

@@ -1,17 +1,12 @@
-"""The standardization step of the SKF: the one home of §2.2 eqs. (6)-(7) (docs/model.md §2).
+"""The standardization step of the SKF, §2.2 eqs. (6)-(7) (docs/model.md §2): shared parts.
 
-The raw weights ``w_t = diag(P^{-1/2} K S K^T P^{-1/2})`` come from the matrices in
-:func:`raw_weights` (the dense path and the filterpy subclass) or from singular values (the
-spectral path); every path then calls :func:`standardize`. :func:`restandardize` is the
-standardization of a smoothed state for ``"rts-state"`` (docs/model.md §3).
-
-Standardization per position (``standardize="position"``, docs/model.md §2) replaces the
-diagonal of ``Psi_t = P^{-1/2} K S K^T P^{-1/2}`` by its ``n_orient x n_orient`` diagonal
-blocks (:func:`raw_blocks`), and ``w ** -alpha`` by the blocks' powers
-(:func:`weight_blocks`); blocks of one are the column form. :func:`standardize_smoothed` is
-the smoother standardized by its own variance, ``"rts-smoothed-weights"`` (§3). The paths
-that hold every covariance (dense, filterpy) call these; the spectral path computes the
-same blocks from singular values (``skf_ref.method._paths.block_weights``).
+The dense path and the filterpy subclass state eqs. (6)-(7) in their own lines; they share
+:func:`inverse_sqrt` (``P_{t|t-1}^{-1/2}``), :func:`diagonal_blocks` and :func:`apply_blocks`
+(the standardization per position, docs/model.md §2), :func:`restandardize_blocks` (the
+smoothed state of ``"rts-state"``) and :func:`standardize_smoothed` (the smoothed state over
+its own variance, ``"rts-smoothed-weights"``, docs/model.md §3). The spectral path computes
+the raw weights from singular values and applies :func:`standardization_weights`, ``w **
+-alpha`` in its fastest exact form; :func:`standardize` is that with eq. (6).
 """
 
 import numpy as np
@@ -30,9 +25,6 @@ __all__ = [
     "diagonal_blocks",
     "inverse_sqrt",
     "overflow_cause",
-    "raw_blocks",
-    "raw_weights",
-    "restandardize",
     "restandardize_blocks",
     "standardization_weights",
     "standardize",
@@ -40,33 +32,6 @@ __all__ = [
     "standardized_means",
     "weight_blocks",
 ]
-
-
-def raw_weights(P_pred_inv_sqrt: _Array, K: _Array, S: _Array) -> _Array:
-    """The raw weights of §2.2 eq. (7) from the filter's matrices.
-
-    Parameters
-    ----------
-    P_pred_inv_sqrt : ndarray, shape (n_sources, n_sources)
-        ``P_{t|t-1}^{-1/2}``.
-    K : ndarray, shape (n_sources, n_channels)
-        Kalman gain ``K_t``.
-    S : ndarray, shape (n_channels, n_channels)
-        Innovation covariance ``S_t``.
-
-    Returns
-    -------
-    ndarray, shape (n_sources,)
-        ``w_t = diag(P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2})``.
-
-    Examples
-    --------
-    >>> raw_weights(np.eye(2), np.array([[1.0], [2.0]]), np.array([[3.0]])).tolist()
-    [3.0, 12.0]
-    """
-    # w_t = diag(P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2})           (7)
-    M = P_pred_inv_sqrt @ K
-    return np.einsum("ij,jk,ik->i", M, S, M)
 
 
 def standardization_weights(w: _Array, exponent: float, out: _Array | None = None) -> _Array:
@@ -190,33 +155,6 @@ def overflow_cause(w_min: float, exponent: float) -> str:
     )
 
 
-def restandardize(w: _Array, P_pred_inv_sqrt: _Array, x: _Array, exponent: float) -> _Array:
-    """Standardize a smoothed state with the filter's own weights (``"rts-state"``).
-
-    ``z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t`` (docs/model.md §3).
-
-    Parameters
-    ----------
-    w : ndarray, shape (n_times, n_sources)
-        The filter's raw weights ``w_t``.
-    P_pred_inv_sqrt : ndarray, shape (n_times, n_sources, n_sources)
-        ``P_{t|t-1}^{-1/2}`` of every step.
-    x : ndarray, shape (n_times, n_sources)
-        Smoothed state ``x^s_t``.
-    exponent : float
-
-    Returns
-    -------
-    ndarray, shape (n_times, n_sources)
-
-    Examples
-    --------
-    >>> restandardize(np.array([[4.0]]), np.array([[[0.5]]]), np.array([[6.0]]), 0.5)
-    array([[1.5]])
-    """
-    return standardize(w, np.einsum("tij,tj->ti", P_pred_inv_sqrt, x), exponent)[1]
-
-
 def inverse_sqrt(P: _Array) -> _Array:
     """Symmetric inverse square root ``P^{-1/2}`` of an SPD matrix, by ``eigh``.
 
@@ -337,33 +275,6 @@ def diagonal_blocks(M: _Array, k: int) -> _Array:
     return np.ascontiguousarray(blocks[np.arange(n), :, np.arange(n), :])
 
 
-def raw_blocks(P_pred_inv_sqrt: _Array, K: _Array, S: _Array, n_orient: int) -> _Array:
-    """The blocks ``B_t(i)`` of ``Psi_t = P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2}``.
-
-    Parameters
-    ----------
-    P_pred_inv_sqrt : ndarray, shape (n_sources, n_sources)
-    K : ndarray, shape (n_sources, n_channels)
-    S : ndarray, shape (n_channels, n_channels)
-    n_orient : int
-        Columns per block; 1 gives the raw weights ``w_t`` (:func:`raw_weights`).
-
-    Returns
-    -------
-    ndarray, shape (n_sources // n_orient, n_orient, n_orient)
-
-    Examples
-    --------
-    >>> raw_blocks(np.eye(2), np.array([[1.0], [2.0]]), np.array([[3.0]]), 2).tolist()
-    [[[3.0, 6.0], [6.0, 12.0]]]
-    """
-    if n_orient == 1:
-        return raw_weights(P_pred_inv_sqrt, K, S)[:, None, None]
-    # B_t(i) = M_i S_t M_i^T with M = P_{t|t-1}^{-1/2} K_t, M_i its rows at position i
-    M = (P_pred_inv_sqrt @ K).reshape(-1, n_orient, K.shape[1])
-    return np.einsum("iam,mn,ibn->iab", M, S, M)
-
-
 def weight_blocks(B: _Array, exponent: float) -> _Array:
     """``W_t^(alpha)`` block by block: ``B_t(i)^(-alpha)`` (docs/model.md §2).
 
@@ -377,7 +288,7 @@ def weight_blocks(B: _Array, exponent: float) -> _Array:
     -------
     ndarray, shape (..., k, k)
         The blocks' powers through their eigendecomposition; for ``k = 1`` the diagonal
-        weights ``w_t ** -alpha`` of §2.2 eq. (7) (:func:`standardization_weights`).
+        weights ``w_t ** -alpha`` of §2.2 eq. (7).
 
     Examples
     --------
@@ -385,8 +296,9 @@ def weight_blocks(B: _Array, exponent: float) -> _Array:
     [2.0, 0.5]
     """
     if B.shape[-1] == 1:
-        # W_t^(alpha) = Diag(w_t)^(-alpha)                                 §2.2 (7)
-        return standardization_weights(B, exponent)
+        with np.errstate(over="ignore", divide="ignore"):  # the result refuses inf, with why
+            # W_t^(alpha) = Diag(w_t)^(-alpha)                             §2.2 (7)
+            return B**-exponent
     # W_t^(alpha) = blockdiag_i B_t(i)^(-alpha), by eigh          docs/model.md §2
     return block_power(B, exponent)
 
@@ -431,8 +343,8 @@ def block_diagonal(W: _Array) -> _Array:
 def restandardize_blocks(W: _Array, P_pred_inv_sqrt: _Array, x: _Array) -> _Array:
     """Standardize a smoothed state with the filter's own weight blocks (``"rts-state"``).
 
-    ``z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t`` (docs/model.md §3), as
-    :func:`restandardize` for a block-diagonal ``W_t^(alpha)``.
+    ``z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t`` (docs/model.md §3), for a
+    block-diagonal ``W_t^(alpha)`` (a diagonal one: blocks of one).
 
     Parameters
     ----------

@@ -20,131 +20,142 @@ from numpy.typing import NDArray
 from scipy import linalg
 
 from .._model import StateSpaceModel
-from .._result import Reconstruction
+from .._powers import block_power
+from .._result import Reconstruction, stored_result
+from .._settings import Settings
 from .._standardization import (
     apply_blocks,
     block_diagonal,
+    diagonal_blocks,
     inverse_sqrt,
-    raw_blocks,
-    raw_weights,
-    restandardize,
     restandardize_blocks,
     standardize_smoothed,
-    weight_blocks,
 )
 
 __all__ = [
     "kalman_filter",
-    "predict",
     "prior_covariances",
-    "result",
     "rts",
     "rts_covariances",
     "run",
     "smooth",
-    "update",
+    "step",
 ]
 
 _LOG_2PI = np.log(2 * np.pi)
 _Array = NDArray[np.float64]
 
 
-def predict(
-    x: NDArray[np.float64],
-    P: NDArray[np.float64],
-    A: NDArray[np.float64],
-    Q: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """One prediction, §2.2 eq. (4): ``x_{t|t-1}, P_{t|t-1}`` from ``x_{t-1|t-1}, P_{t-1|t-1}``.
+def step(
+    x: _Array,
+    P: _Array,
+    y: _Array | None,
+    L: _Array,
+    R: _Array,
+    A: _Array,
+    Q: _Array,
+    exponent: float,
+    block: int = 1,
+) -> dict[str, Any]:
+    """One step of the SKF, §2.2 eqs. (4)-(7), one line an equation (docs/model.md §2).
 
     Parameters
     ----------
     x : ndarray, shape (n_sources,)
-    P, A, Q : ndarray, shape (n_sources, n_sources)
-
-    Returns
-    -------
-    x_pred : ndarray, shape (n_sources,)
-    P_pred : ndarray, shape (n_sources, n_sources)
-        Symmetrized.
-    """
-    # x_{t|t-1} = A x_{t-1|t-1}                                     §2.2 (4)
-    x_pred = A @ x
-    # P_{t|t-1} = A P_{t-1|t-1} A^T + Q                             §2.2 (4)
-    P_pred = A @ P @ A.T + Q
-    return x_pred, (P_pred + P_pred.T) / 2
-
-
-def update(
-    x_pred: NDArray[np.float64],
-    P_pred: NDArray[np.float64],
-    y: NDArray[np.float64],
-    L: NDArray[np.float64],
-    R: NDArray[np.float64],
-) -> tuple[
-    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float
-]:
-    """One update, §2.2 eq. (5), with the step's innovation log-likelihood.
-
-    Parameters
-    ----------
-    x_pred : ndarray, shape (n_sources,)
-    P_pred : ndarray, shape (n_sources, n_sources)
-    y : ndarray, shape (n_channels,)
+        ``x_{t-1|t-1}``.
+    P : ndarray, shape (n_sources, n_sources)
+        ``P_{t-1|t-1}``.
+    y : ndarray, shape (n_channels,), or None
+        ``y_t``; None for a missing step (a prediction without an update).
     L : ndarray, shape (n_channels, n_sources)
     R : ndarray, shape (n_channels, n_channels)
+    A, Q : ndarray, shape (n_sources, n_sources)
+    exponent : float
+    block : int
+        Columns standardized together: 1, each on its own (the paper's); ``n_orient``, each
+        position's block (docs/model.md §2).
 
     Returns
     -------
-    x : ndarray, shape (n_sources,)
-        ``x_{t|t}``.
-    P : ndarray, shape (n_sources, n_sources)
-        ``P_{t|t}``, symmetrized.
-    K : ndarray, shape (n_sources, n_channels)
-    S : ndarray, shape (n_channels, n_channels)
-    log_likelihood : float
-        ``log N(y_t - L x_{t|t-1}; 0, S_t)``.
+    dict
+        ``x_pred``, ``x``, ``z``, ``w`` (n_sources,); ``P_pred``, ``P``,
+        ``P_pred_inv_sqrt`` (n_sources, n_sources); ``K`` (n_sources, n_channels), ``S``
+        (n_channels, n_channels); ``W`` (n_sources // block, block, block), the blocks of
+        ``W_t^(alpha)``; ``log_likelihood``, ``log N(y_t - L x_{t|t-1}; 0, S_t)``. A missing
+        step gives ``x_pred``, ``P_pred``, ``x`` and ``P`` only.
 
     Raises
     ------
     scipy.linalg.LinAlgError
-        If ``S_t`` is not positive definite in double precision.
+        If ``S_t`` or ``P_{t|t-1}`` is not positive definite in double precision.
     """
-    # S_t = L P_{t|t-1} L^T + R                                     §2.2 (5)
+    # predict                                                          §2.2 eq. (4)
+    x_pred = A @ x
+    P_pred = _symmetric(A @ P @ A.T + Q)
+    if y is None:  # a missing step: x_{t|t} = x_{t|t-1}, P_{t|t} = P_{t|t-1}  docs/model.md §2
+        return dict(x_pred=x_pred, P_pred=P_pred, x=x_pred, P=P_pred)
+    # update (S_t by Cholesky, never its inverse)                      §2.2 eq. (5)
     S = L @ P_pred @ L.T + R
+    S_factor = _cholesky(S)
+    K = linalg.cho_solve(S_factor, L @ P_pred).T
+    e = y - L @ x_pred
+    x = x_pred + K @ e
+    P = _symmetric(P_pred - K @ S @ K.T)
+    # weights: w_t = diag(Psi_t), Psi_t = P^{-1/2} K_t S_t K_t^T P^{-1/2}  §2.2 eq. (7)
+    P_pred_inv_sqrt = inverse_sqrt(P_pred)
+    M = P_pred_inv_sqrt @ K
+    Psi = M @ S @ M.T
+    w = np.diag(Psi).copy()
+    if block == 1:
+        with np.errstate(over="ignore", divide="ignore"):  # the result refuses inf, with why
+            # W_t^(alpha) = Diag(w_t)^(-alpha)                         §2.2 eq. (7)
+            W = w**-exponent
+            # z_{t|t} = W_t^(alpha) P_{t|t-1}^{-1/2} x_{t|t}             §2.2 eq. (6)
+            z = W * (P_pred_inv_sqrt @ x)
+        W = W[:, None, None]
+    else:  # per position: W_t^(alpha) = blockdiag_i B_t(i)^(-alpha)   docs/model.md §2
+        W = block_power(diagonal_blocks(Psi, block), exponent)
+        z = apply_blocks(W, P_pred_inv_sqrt @ x)
+    log_likelihood = _log_density(e, S_factor)
+    return dict(x_pred=x_pred, P_pred=P_pred, x=x, P=P, K=K, S=S, w=w, W=W, z=z) | dict(
+        P_pred_inv_sqrt=P_pred_inv_sqrt, log_likelihood=log_likelihood
+    )
+
+
+def _symmetric(P: _Array) -> _Array:
+    """``(P + P^T) / 2``: a covariance kept symmetric to the last bit."""
+    return (P + P.T) / 2
+
+
+def _cholesky(S: _Array) -> tuple[_Array, bool]:
+    """The Cholesky factor of ``S_t``, or an error naming its eigenvalues."""
     try:
-        S_chol = linalg.cho_factor(S, lower=True)
+        return linalg.cho_factor(S, lower=True)
     except linalg.LinAlgError as err:
         eigenvalues = linalg.eigvalsh(S)
         raise linalg.LinAlgError(
             "S_t = L P_t|t-1 L^T + R is not positive definite in double precision (eigenvalues "
             f"from {eigenvalues[0]:.3g} to {eigenvalues[-1]:.3g})"
         ) from err
-    # K_t = P_{t|t-1} L^T S_t^{-1}   (a solve with S, never its inverse)   §2.2 (5)
-    K = linalg.cho_solve(S_chol, L @ P_pred).T
-    # e_t = y_t - L x_{t|t-1}
-    e = y - L @ x_pred
-    # x_{t|t} = x_{t|t-1} + K_t e_t                                 §2.2 (5)
-    x = x_pred + K @ e
-    # P_{t|t} = P_{t|t-1} - K_t S_t K_t^T                           §2.2 (5)
-    P = P_pred - K @ S @ K.T
-    # log N(e_t; 0, S_t) = -(m log 2 pi + log det S_t + e^T S_t^{-1} e) / 2
-    log_det = 2 * np.sum(np.log(np.diag(S_chol[0])))
-    log_likelihood = -0.5 * (len(y) * _LOG_2PI + log_det + e @ linalg.cho_solve(S_chol, e))
-    return x, (P + P.T) / 2, K, S, log_likelihood
+
+
+def _log_density(e: _Array, S_factor: tuple[_Array, bool]) -> float:
+    """``log N(e; 0, S) = -(m log 2 pi + log det S + e^T S^{-1} e) / 2``, by ``S``'s factor."""
+    log_det = 2 * np.sum(np.log(np.diag(S_factor[0])))
+    return float(-0.5 * (len(e) * _LOG_2PI + log_det + e @ linalg.cho_solve(S_factor, e)))
 
 
 def kalman_filter(
-    L: NDArray[np.float64],
-    Y: NDArray[np.float64],
-    R: NDArray[np.float64],
-    A: NDArray[np.float64],
-    Q: NDArray[np.float64],
-    P0: NDArray[np.float64],
+    L: _Array,
+    Y: _Array,
+    R: _Array,
+    A: _Array,
+    Q: _Array,
+    P0: _Array,
     exponent: float,
     block: int = 1,
 ) -> dict[str, Any]:
-    """Run the SKF forward pass (§2.2 eqs. 4-7), keeping every mean and covariance.
+    """Run the SKF forward pass (§2.2 eqs. 4-7, :func:`step`), keeping every mean and covariance.
 
     A column of ``Y`` that is all NaN is a missing step (docs/model.md §2): the prediction
     stands, ``x_{t|t} = x_{t|t-1}`` and ``P_{t|t} = P_{t|t-1}``; the step has no weights,
@@ -171,39 +182,26 @@ def kalman_filter(
         ``log_likelihood`` (float); ``missing`` (n_times,), the missing steps.
     """
     n, T = L.shape[1], Y.shape[1]
-    out: dict[str, Any] = {
-        key: np.full((T, n), np.nan) for key in ("x_filt", "x_pred", "z", "w", "weights")
-    }
+    names = {"x_filt": "x", "x_pred": "x_pred", "z": "z", "w": "w", "W": "W", "P_filt": "P"}
+    names |= {"P_pred": "P_pred", "P_pred_inv_sqrt": "P_pred_inv_sqrt"}
+    out: dict[str, Any] = {key: np.full((T, n), np.nan) for key in ("x_filt", "x_pred", "z", "w")}
     out["W"] = np.full((T, n // block, block, block), np.nan)
     for key in ("P_filt", "P_pred", "P_pred_inv_sqrt"):
         out[key] = np.full((T, n, n), np.nan)
+    out["missing"] = np.isnan(Y[0])
     x, P, total = np.zeros(n), P0, 0.0
     for t in range(T):
-        x_pred, P_pred = predict(x, P, A, Q)
-        out["x_pred"][t], out["P_pred"][t] = x_pred, P_pred
-        if np.isnan(Y[0, t]):
-            # a missing step: x_{t|t} = x_{t|t-1}, P_{t|t} = P_{t|t-1}   docs/model.md §2
-            x, P = x_pred, P_pred
-            out["x_filt"][t], out["P_filt"][t] = x, P
-            continue
+        y = None if out["missing"][t] else Y[:, t]
         try:
-            x, P, K, S, log_likelihood = update(x_pred, P_pred, Y[:, t], L, R)
-            P_pred_inv_sqrt = inverse_sqrt(P_pred)
+            s = step(x, P, y, L, R, A, Q, exponent, block)
         except linalg.LinAlgError as err:
             raise linalg.LinAlgError(f"at step {t + 1}: {err}") from err
-        # w_t = diag(Psi_t), Psi_t = P_{t|t-1}^{-1/2} K_t S_t K_t^T P_{t|t-1}^{-1/2}  §2.2 (7)
-        w = raw_weights(P_pred_inv_sqrt, K, S)
-        # B_t(i): the n_orient x n_orient diagonal blocks of Psi_t (1 x 1: w_t)  docs/model.md §2
-        B = raw_blocks(P_pred_inv_sqrt, K, S, block)
-        # W_t^(alpha) = blockdiag_i B_t(i)^(-alpha)  (1 x 1: Diag(w_t)^(-alpha))    §2.2 (7)
-        W = weight_blocks(B, exponent)
-        # z_{t|t} = W_t^(alpha) P_{t|t-1}^{-1/2} x_{t|t}                          §2.2 (6)
-        z = apply_blocks(W, P_pred_inv_sqrt @ x)
-        total += log_likelihood
-        out["x_filt"][t], out["z"][t], out["w"][t], out["W"][t] = x, z, w, W
-        out["weights"][t] = block_diagonal(W)
-        out["P_filt"][t], out["P_pred_inv_sqrt"][t] = P, P_pred_inv_sqrt
-    out["log_likelihood"], out["missing"] = total, np.isnan(Y[0])
+        x, P, total = s["x"], s["P"], total + s.get("log_likelihood", 0.0)
+        for key, name in names.items():
+            if name in s:
+                out[key][t] = s[name]
+    out["weights"] = block_diagonal(out["W"])  # the diagonal of W_t^(alpha)
+    out["log_likelihood"] = total
     return out
 
 
@@ -289,14 +287,7 @@ def prior_covariances(
     return Sigma
 
 
-def run(
-    model: StateSpaceModel,
-    Y: NDArray[np.float64],
-    exponent: float,
-    smoother: str | None,
-    standardize: str = "column",
-    n_orient: int | None = None,
-) -> Reconstruction:
+def run(model: StateSpaceModel, Y: _Array, settings: Settings) -> Reconstruction:
     """Filter, smooth if asked, and return the result.
 
     Parameters
@@ -304,22 +295,18 @@ def run(
     model : StateSpaceModel
     Y : ndarray, shape (n_channels, n_times)
         A column of NaN is a missing step.
-    exponent : float
-    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
-        ``"rts-standardized"`` only without missing steps (the caller checks).
-    standardize : {"column", "position"}
-    n_orient : {1, 3} or None
-        Checked by the caller (``"position"`` needs it).
+    settings : Settings
+        Checked by the caller (``"rts-standardized"`` only without missing steps).
 
     Returns
     -------
     Reconstruction
     """
-    block = n_orient if standardize == "position" and n_orient else 1
+    exponent, block = settings.exponent, settings.block
     A, Q, P0 = (model.matrix(name) for name in ("transition", "q", "theta0"))
     f = kalman_filter(model.L, Y, model.R, A, Q, P0, exponent, block)
-    x, z = smooth(f, smoother, A, exponent, block, prior=(Q, P0))
-    return result(f, x, z, model, exponent, smoother, "dense", (standardize, n_orient))
+    x, z = smooth(f, settings.smoother, A, exponent, block, prior=(Q, P0))
+    return stored_result(f, x, z, model, settings, "dense")
 
 
 def smooth(
@@ -357,10 +344,9 @@ def smooth(
     elif smoother == "rts-state":
         # textbook RTS on the state, then z^s_t = W_t^(alpha) P_{t|t-1}^{-1/2} x^s_t
         x = rts(f["x_filt"], f["P_filt"], f["P_pred"], A)
-        if "W" in f:
-            z = restandardize_blocks(f["W"], f["P_pred_inv_sqrt"], x)
-        else:  # a filter's output with the column weights only (skf_ref.conformance's)
-            z = restandardize(f["w"], f["P_pred_inv_sqrt"], x, exponent)
+        # (a filter's output with the column weights only, skf_ref.conformance's: 1 x 1 blocks)
+        W = f["W"] if "W" in f else f["weights"][..., None, None]
+        z = restandardize_blocks(W, f["P_pred_inv_sqrt"], x)
     elif smoother == "rts-smoothed-weights":
         # textbook RTS on the state and its covariance P^s_t, then the smoothed state over
         # its own variance: z^s_t = W^s_t Sigma_t^{-1/2} x^s_t        docs/model.md §3
@@ -379,38 +365,3 @@ def _missing(f: dict[str, Any]) -> NDArray[np.bool_]:
     """The missing steps of a filter's output (none when it does not say)."""
     missing = f.get("missing")
     return np.zeros(len(f["x_filt"]), bool) if missing is None else missing
-
-
-def result(
-    filtered: dict[str, Any],
-    x: NDArray[np.float64],
-    z: NDArray[np.float64],
-    model: StateSpaceModel,
-    exponent: float,
-    smoother: str | None,
-    method: str,
-    standardization: tuple[str, int | None] = ("column", None),
-) -> Reconstruction:
-    """The result of a covariance-storing path (dense, filterpy) from its time-major
-    (n_times, n_sources) filter output and its (smoothed) ``x`` and ``z``;
-    ``standardization`` is ``(standardize, n_orient)``."""
-    return Reconstruction(
-        z=z.T,
-        x=x.T,
-        z_filtered=filtered["z"].T,
-        x_filtered=filtered["x_filt"].T,
-        weights=filtered["weights"].T,
-        log_likelihood=filtered["log_likelihood"],
-        n_sources=model.n_sources,
-        n_times=len(z),
-        exponent=exponent,
-        smoother=smoother,
-        method=method,
-        theta0=model.theta0,
-        q=model.q,
-        transition=model.transition,
-        standardize=standardization[0],
-        n_orient=standardization[1],
-        missing=filtered.get("missing"),  # None: every step observed
-        min_raw_weight=float(np.nanmin(filtered["w"])),
-    )

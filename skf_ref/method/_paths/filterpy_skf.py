@@ -16,21 +16,19 @@ from filterpy.kalman import KalmanFilter
 from filterpy.kalman import predict as filterpy_predict
 from numpy.typing import ArrayLike, NDArray
 
-from ..._utils.checks import check_int, check_real
+from ..._utils.checks import check_int
 from .._model import StateSpaceModel
-from .._result import Reconstruction
-from .._settings import check_settings
+from .._powers import block_power
+from .._result import Reconstruction, stored_result
+from .._settings import Settings, check_settings
 from .._standardization import (
     apply_blocks,
     block_diagonal,
+    diagonal_blocks,
     inverse_sqrt,
-    raw_blocks,
-    raw_weights,
     restandardize_blocks,
     standardize_smoothed,
-    weight_blocks,
 )
-from .dense import result
 
 __all__ = ["StandardizedKalmanFilter", "run"]
 
@@ -88,14 +86,24 @@ class StandardizedKalmanFilter(KalmanFilter):
         n_orient: int = 1,
     ) -> None:
         super().__init__(check_int("dim_x", dim_x), check_int("dim_z", dim_z))
-        self.exponent = check_real("exponent", exponent, nonnegative=True)
-        settings = check_settings(standardize=standardize, n_orient=n_orient, n_sources=self.dim_x)
-        self.standardize, self.n_orient, self._block = standardize, n_orient, settings.block
-        self.weights = np.full(dim_x, np.nan)
-        self.weight_blocks = np.full((dim_x // self._block, self._block, self._block), np.nan)
-        self.x_standardized = np.full(dim_x, np.nan)
-        self.raw_weights = np.full(dim_x, np.nan)
-        self.P_prior_inv_sqrt = np.full((dim_x, dim_x), np.nan)
+        self._set(check_settings(exponent, None, "filterpy", standardize, n_orient, self.dim_x))
+
+    @classmethod
+    def _checked(cls, dim_x: int, dim_z: int, settings: Settings) -> "StandardizedKalmanFilter":
+        """The filter of settings already checked (:func:`run`'s), not checked again."""
+        kf = cls.__new__(cls)
+        KalmanFilter.__init__(kf, dim_x, dim_z)
+        kf._set(settings)
+        return kf
+
+    def _set(self, settings: Settings) -> None:
+        self.exponent, self.standardize = settings.exponent, settings.standardize
+        self.n_orient, self._block = settings.n_orient or 1, settings.block
+        self.weights = np.full(self.dim_x, np.nan)
+        self.weight_blocks = np.full((self.dim_x // self._block, self._block, self._block), np.nan)
+        self.x_standardized = np.full(self.dim_x, np.nan)
+        self.raw_weights = np.full(self.dim_x, np.nan)
+        self.P_prior_inv_sqrt = np.full((self.dim_x, self.dim_x), np.nan)
 
     def update(
         self, z: ArrayLike | None, R: ArrayLike | None = None, H: ArrayLike | None = None
@@ -113,7 +121,6 @@ class StandardizedKalmanFilter(KalmanFilter):
             Measurement noise covariance and matrix for this step (default ``self.R``,
             ``self.H``), as filterpy's ``update``.
         """
-        P_prior = self.P  # after predict(), self.P is P_{t|t-1}
         super().update(z, R=R, H=H)
         if z is None:
             self.weights = np.full(self.dim_x, np.nan)
@@ -122,24 +129,27 @@ class StandardizedKalmanFilter(KalmanFilter):
             self.raw_weights = np.full(self.dim_x, np.nan)
             self.P_prior_inv_sqrt = np.full((self.dim_x, self.dim_x), np.nan)
             return
-        self.P_prior_inv_sqrt = inverse_sqrt(P_prior)
-        self.raw_weights = raw_weights(self.P_prior_inv_sqrt, self.K, self.S)
-        B = raw_blocks(self.P_prior_inv_sqrt, self.K, self.S, self._block)
-        self.weight_blocks = weight_blocks(B, self.exponent)
-        self.weights = block_diagonal(self.weight_blocks)
-        self.x_standardized = apply_blocks(
-            self.weight_blocks, self.P_prior_inv_sqrt @ self.x.ravel()
-        )
+        # w_t = diag(Psi_t), Psi_t = P^{-1/2} K_t S_t K_t^T P^{-1/2}, with filterpy's
+        # P_prior = P_{t|t-1} (set by predict), K and S                 §2.2 eq. (7)
+        self.P_prior_inv_sqrt = inverse_sqrt(self.P_prior)
+        M = self.P_prior_inv_sqrt @ self.K
+        Psi = M @ self.S @ M.T
+        self.raw_weights = np.diag(Psi).copy()
+        whitened = self.P_prior_inv_sqrt @ self.x.ravel()
+        if self._block == 1:
+            with np.errstate(over="ignore", divide="ignore"):  # the result refuses inf
+                # W_t^(alpha) = Diag(w_t)^(-alpha)                     §2.2 eq. (7)
+                self.weights = self.raw_weights**-self.exponent
+                # z_{t|t} = W_t^(alpha) P_{t|t-1}^{-1/2} x_{t|t}         §2.2 eq. (6)
+                self.x_standardized = self.weights * whitened
+            self.weight_blocks = self.weights[:, None, None]
+        else:  # per position: W_t^(alpha) = blockdiag_i B_t(i)^(-alpha)  docs/model.md §2
+            self.weight_blocks = block_power(diagonal_blocks(Psi, self._block), self.exponent)
+            self.weights = block_diagonal(self.weight_blocks)
+            self.x_standardized = apply_blocks(self.weight_blocks, whitened)
 
 
-def run(
-    model: StateSpaceModel,
-    Y: NDArray[np.float64],
-    exponent: float,
-    smoother: str | None,
-    standardize: str = "column",
-    n_orient: int | None = None,
-) -> Reconstruction:
+def run(model: StateSpaceModel, Y: NDArray[np.float64], settings: Settings) -> Reconstruction:
     """Run the filterpy subclass over the data, then filterpy's ``rts_smoother`` method.
 
     A missing step (a column of NaN) is filterpy's ``update(None)``: the prediction stands.
@@ -148,19 +158,16 @@ def run(
     ----------
     model : StateSpaceModel
     Y : ndarray, shape (n_channels, n_times)
-    exponent : float
-    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
-        ``"rts-standardized"`` only without missing steps (the caller checks).
-    standardize : {"column", "position"}
-    n_orient : {1, 3} or None
-        Checked by the caller (``"position"`` needs it).
+    settings : Settings
+        Checked by the caller (``"rts-standardized"`` only without missing steps).
 
     Returns
     -------
     Reconstruction
     """
     (m, n), T = model.L.shape, Y.shape[1]
-    kf = StandardizedKalmanFilter(n, m, exponent, standardize, n_orient or 1)
+    kf = StandardizedKalmanFilter._checked(n, m, settings)
+    exponent, smoother = settings.exponent, settings.smoother
     kf.x, kf.P, kf.F = np.zeros((n, 1)), model.matrix("theta0").copy(), model.matrix("transition")
     kf.Q, kf.H, kf.R = model.matrix("q"), model.L, model.R
     f: dict[str, Any] = {key: np.empty((T, n)) for key in ("x_filt", "z", "w", "weights")}
@@ -191,7 +198,7 @@ def run(
         Sigma = _prior_covariances(model.matrix("theta0"), kf.F, kf.Q, T)
         z = standardize_smoothed(x, P_smoothed, Sigma, exponent, kf.weight_blocks.shape[-1])
         z[f["missing"]] = np.nan  # no estimate at a missing step, as on every smoother
-    return result(f, x, z, model, exponent, smoother, "filterpy", (standardize, n_orient))
+    return stored_result(f, x, z, model, settings, "filterpy")
 
 
 def _prior_covariances(

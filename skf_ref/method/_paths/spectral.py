@@ -93,7 +93,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..._utils.checks import InputError
 from .._model import StateSpaceModel
 from .._result import Reconstruction
-from .._settings import check_gaps, check_settings
+from .._settings import Settings, check_gaps, check_settings
 from .._standardization import check_positions_seen, overflow_cause
 from .block_weights import BlockStandardization
 from .recursions import Recursions
@@ -288,10 +288,32 @@ class SpectralModel:
         if data.shape != (m, T):
             raise InputError(f"Y must have shape ({m}, {T}), got {data.shape}")
         missing = np.isnan(data[0])  # check_data refused columns NaN in part
-        check_gaps(smoother, missing)
         settings = check_settings(
             exponent, smoother, "spectral", standardize, n_orient, self.n_sources
         )
+        check_gaps(settings.smoother, missing)
+        return self.checked_apply(data, settings, memory_limit)
+
+    def checked_apply(
+        self, Y: NDArray[np.float64], settings: Settings, memory_limit: float | None = None
+    ) -> Reconstruction:
+        """:meth:`apply` on data and settings already checked (the public routes' kernel).
+
+        Parameters
+        ----------
+        Y : ndarray, shape (n_channels, n_times)
+            Checked (``StateSpaceModel.check_data``); a column of NaN is a missing step.
+        settings : Settings
+            Checked, with :func:`skf_ref.method._settings.check_gaps` against ``Y``.
+        memory_limit : float, optional
+
+        Returns
+        -------
+        Reconstruction
+        """
+        data, m, T = Y, self.n_channels, self.n_times
+        exponent, smoother = settings.exponent, settings.smoother
+        missing = np.isnan(data[0])
         block = settings.block
         if block not in self._seen:  # every position's block regular (docs/model.md §2)
             check_positions_seen(self.model.L, self.model.R, block)
@@ -342,11 +364,8 @@ class SpectralModel:
 def run(
     model: StateSpaceModel,
     Y: NDArray[np.float64],
-    exponent: float,
-    smoother: str | None,
+    settings: Settings,
     memory_limit: float | None = None,
-    standardize: str = "column",
-    n_orient: int | None = None,
 ) -> Reconstruction:
     """Filter and optionally smooth in the singular basis; equal to
     ``skf_ref.method._paths.dense.run``.
@@ -356,17 +375,14 @@ def run(
     model : StateSpaceModel
         Isotropic: see :class:`SpectralModel`.
     Y : ndarray, shape (n_channels, n_times)
-    exponent : float
-    smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
+    settings : Settings
+        Checked by the caller.
     memory_limit : float, optional
         See :meth:`SpectralModel.apply`.
-    standardize : {"column", "position"}
-    n_orient : {1, 3}, optional
 
     Returns
     -------
     Reconstruction
         Its arrays are computed on first access.
     """
-    prepared = SpectralModel(model, Y.shape[1])
-    return prepared.apply(Y, exponent, smoother, memory_limit, standardize, n_orient)
+    return SpectralModel(model, Y.shape[1]).checked_apply(Y, settings, memory_limit)
