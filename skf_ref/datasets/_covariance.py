@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..io.noise_cov import baseline_covariance
+from ..io._noise_cov import baseline_covariance
 
 if TYPE_CHECKING:
     import mne
