@@ -5,6 +5,9 @@ installed. The forward helper's orientation is tested everywhere. Everything her
 MNE sphere (no dataset, no download).
 """
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -125,3 +128,38 @@ def test_invertmeeg_s_runner_scores_the_registered_skf(fixed):
         skf.metrics["average_precision"].mean
         > results["random-noise"].metrics["average_precision"].mean
     )
+
+
+def _docs_snippet():
+    """docs/choosing.md's adapter for users (the ```python block of its invertmeeg section)."""
+    page = (Path(__file__).resolve().parents[1] / "docs" / "choosing.md").read_text()
+    section = page[page.index("## Beside invertmeeg's solvers") :]
+    return re.search(r"```python\n(.*?)```", section, flags=re.S).group(1)
+
+
+def test_the_docs_adapter_registers_and_gives_apply_skf_s_estimate(fixed, monkeypatch):
+    pytest.importorskip("invert", reason=NO_INVERTMEEG)
+    from invert import solver_registry
+
+    for name in ("_SOLVER_SPECS", "_SPECS_BY_ID", "_ALIAS_TO_ID"):  # restored afterwards
+        monkeypatch.setattr(solver_registry, name, getattr(solver_registry, name))
+    key = solver_registry.normalize_solver_name("skf")
+    if key in solver_registry._SPECS_BY_ID:  # the repository's adapter, registered above
+        specs = tuple(s for s in solver_registry._SOLVER_SPECS if s.normalized_id() != key)
+        by_id, aliases = solver_registry._build_solver_indexes(specs)
+        monkeypatch.setattr(solver_registry, "_SOLVER_SPECS", specs)
+        monkeypatch.setattr(solver_registry, "_SPECS_BY_ID", by_id)
+        monkeypatch.setattr(solver_registry, "_ALIAS_TO_ID", aliases)
+    code = _docs_snippet()
+    setup, run = code.split("runner = ", 1)
+    assert "BenchmarkRunner(forward, info" in run  # the page's run: the user's forward
+    namespace = {"__name__": "docs_snippet"}
+    exec(compile(setup, "docs/choosing.md", "exec"), namespace)
+    spec = solver_registry.get_solver_spec("skf")
+    assert (spec.module_path, spec.class_name) == ("docs_snippet", "SolverSKF")
+    fwd, info = fixed
+    evoked, cov = _evoked(fwd, info, 20)
+    solver = namespace["SolverSKF"]()
+    solver.make_inverse_operator(fwd, evoked, alpha="auto", noise_cov=cov)
+    stc = solver.apply_inverse_operator(evoked)
+    np.testing.assert_array_equal(stc.data, skf_ref.apply_skf(evoked, fwd, cov).data)
