@@ -57,8 +57,9 @@ SOLVERS = (
     "skf",
 )
 DATASETS = ("focal_source", "multi_source", "extended_source", "noisy")
-#: Samples per dataset: invertmeeg's default is 50; 5 keeps the run within about 15 minutes on two
-#: shared cores (every data-dependent solver is made once per sample).
+#: Samples per dataset: invertmeeg's default is 50; 5 kept the run of record to 22 minutes on
+#: two cores shared at a load near 12 (every data-dependent solver is made once per sample;
+#: FlexChampagne and OmniChampagne took 15-25 s a sample).
 N_SAMPLES = 5
 SEED = 0
 #: The runner's metric names, ours, the factor to the unit reported.
