@@ -581,6 +581,21 @@ QUOTES = (
         "validation/bench/operator.md",
         read=_speeds,
     ),
+    Quote(
+        "docs/choosing.md",
+        "With {n_samples} samples per dataset, the SKF came in place {g_place} of {n_solvers} "
+        "solvers by invertmeeg's global rank ({g_rank}):",
+        "validation/invertmeeg/results.csv",
+        read=lambda text: _invertmeeg(text),
+    ),
+    Quote(
+        "docs/choosing.md",
+        "By dataset: place {focal} (focal), {multi} (multi-source), {extended} (extended) and "
+        "{noisy} (noisy). The time constant its likelihood chose was short (median {tau:.1f} "
+        "ms)",
+        "validation/invertmeeg/results.csv",
+        read=lambda text: _invertmeeg(text),
+    ),
 )
 
 
@@ -601,6 +616,37 @@ def _timecourses(text):
         rs=median("erp", walk, "rts-standardized", 2),
         early=median("erp", ar20, "rts-standardized", 0),
     )  # fmt: skip
+
+
+def _invertmeeg(text):
+    """The SKF's places on invertmeeg's benchmark (validation/invertmeeg/results.csv; its
+    rank columns are invertmeeg's), the samples and the time constants (run.json)."""
+    rows = list(csv.DictReader(text.splitlines()))
+    run = json.loads((ROOT / "validation" / "invertmeeg" / "run.json").read_text())
+
+    def place(rank_of):
+        skf = rank_of["skf"]
+        return 1 + sum(rank < skf for rank in rank_of.values())
+
+    by_dataset = {}
+    for row in rows:
+        by_dataset.setdefault(row["dataset"], {})[row["solver"]] = Decimal(row["rank"])
+    global_rank = {row["solver"]: Decimal(row["global rank"]) for row in rows}
+    (n_solvers,) = {len(ranks) for ranks in by_dataset.values()}
+    taus = sorted(run["time_constants_ms"])
+    middle = len(taus) // 2
+    tau = taus[middle] if len(taus) % 2 else (taus[middle - 1] + taus[middle]) / 2
+    return {
+        "n_samples": run["n_samples"],
+        "n_solvers": n_solvers,
+        "g_place": place(global_rank),
+        "g_rank": global_rank["skf"],
+        "focal": place(by_dataset["focal_source"]),
+        "multi": place(by_dataset["multi_source"]),
+        "extended": place(by_dataset["extended_source"]),
+        "noisy": place(by_dataset["noisy"]),
+        "tau": Decimal(repr(tau)),
+    }
 
 
 def _ar1(text):
