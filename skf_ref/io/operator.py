@@ -11,6 +11,7 @@ covariance recursion; :meth:`SKFOperator.to_stc` makes the MNE source estimate.
 from __future__ import annotations
 
 import collections
+import contextlib
 import html
 from dataclasses import dataclass
 from typing import Any, cast
@@ -29,6 +30,7 @@ from .._utils.checks import (
 )
 from .._utils.log import logger
 from .._utils.precision import zero_tolerance
+from .._utils.threads import _blas
 from ..method import (
     Reconstruction,
     SpectralBasis,
@@ -56,6 +58,22 @@ _MODELS_KEPT = 4  # covariance recursions kept, one per number of samples and pr
 
 #: A prior SNR as an operator holds it: a number (dB), ``"auto"``, or a search range.
 Prior = float | str | tuple[float, float]
+
+
+#: Multiply-adds of a product below which it runs on one BLAS thread (about 10 ms of one core).
+_SMALL_PRODUCT = 2**25
+
+
+def _one_blas_thread(work: int) -> Any:
+    """One BLAS thread for a product of ``work`` multiply-adds below :data:`_SMALL_PRODUCT`
+    (a context; none for a larger one). An epoch's whitening and projection (rank x channels
+    x samples, 7e6 on the sample subject) took 20-70 ms on two BLAS threads on a machine
+    busy with other work, against 2-3 ms on one: the threads wait for a core each, for
+    little work (validation/epochs_bench.py). The rows of the outputs run on worker threads,
+    each on one BLAS thread, already (``skf_ref._utils.threads``)."""
+    if work >= _SMALL_PRODUCT:
+        return contextlib.nullcontext()
+    return _blas().select(user_api="blas").limit(limits=1)
 
 
 def check_prior(name: str, value: Any) -> Prior:
@@ -454,7 +472,8 @@ class SKFOperator:
         # raw weights w_t (§2.2 eq. (7)) and the same z (eq. (6)), likelihood and "auto"
         # choice. So the whitened data alone are scaled (MNE's prepare_inverse_operator
         # scales noise and source covariance alike, to the same effect).
-        whitened = self.whitener @ data
+        with _one_blas_thread(self.whitener.size * data.shape[1]):
+            whitened = self.whitener @ data
         if nave != 1:
             whitened *= np.sqrt(nave)
         if not np.all(np.isfinite(whitened[:, ~missing])):
@@ -477,9 +496,10 @@ class SKFOperator:
                 logger.info("SKF: priors chosen by the data: %s", _describe_tuning(tuning))
         if method in ("auto", "spectral"):  # the operator's SVD (and recursions) again
             memory.check_reconstruction("spectral", smoother, n, self.rank, T, memory_limit)
-            rec = self._model(T, theta0, q, transition).apply(
-                whitened, exponent, smoother, memory_limit, standardize, self.n_components
-            )
+            with _one_blas_thread(self.whitener.size * T):  # the r x T part: projection, filter
+                rec = self._model(T, theta0, q, transition).apply(
+                    whitened, exponent, smoother, memory_limit, standardize, self.n_components
+                )
         else:
             rec = reconstruct(
                 self.leadfield,
