@@ -30,7 +30,7 @@ from .._utils.checks import (
 )
 from .._utils.log import logger
 from .._utils.precision import zero_tolerance
-from .._utils.threads import _blas
+from .._utils.threads import one_blas_thread
 from ..method import (
     Reconstruction,
     SpectralBasis,
@@ -73,7 +73,7 @@ def _one_blas_thread(work: int) -> Any:
     each on one BLAS thread, already (``skf_ref._utils.threads``)."""
     if work >= _SMALL_PRODUCT:
         return contextlib.nullcontext()
-    return _blas().select(user_api="blas").limit(limits=1)
+    return one_blas_thread()
 
 
 def check_prior(name: str, value: Any) -> Prior:
