@@ -260,6 +260,32 @@ def _epochs(text):
     return values
 
 
+def _record(text):
+    """The benchmark of record's raw and first-application tables (epochs.md's second and
+    third, and epochs-blas1.md's), keyed as :func:`_epochs`'s."""
+    values = {}
+    for suffix, source in (("2", "epochs.md"), ("1", "epochs-blas1.md")):
+        _, raw, first, *_ = _tables((BENCH / source).read_text())
+        for path, wall, cpu, ratio, *_ in raw:
+            key = f"{path.replace('-', '_')}{suffix}"
+            values[f"{key}_wall"] = Decimal(wall.split()[0])
+            values[f"{key}_cpu"] = Decimal(cpu.split()[0])
+            values[f"{key}_ratio"] = re.sub(r"\((.*)\)", r"[\1]", ratio)
+        for path, wall, cpu, _, made in first:
+            key = f"first_{path.replace('-', '_')}{suffix}"
+            values[f"{key}_wall"], values[f"{key}_cpu"] = Decimal(wall), Decimal(cpu)
+            values[f"{key}_made"] = Decimal(made)
+    return values
+
+
+def _before(text):
+    """The benchmark of record before issue 46's speed work (epochs-before.md)."""
+    epochs, raw, first, *_ = _tables(text)
+    ratios = {row[0]: re.sub(r"\((.*)\)", r"[\1]", row[3]) for row in epochs + raw}
+    skf_first = next(Decimal(row[1]) for row in first if row[0] == "skf")
+    return dict(skf_ratio=ratios["skf"], raw_ratio=ratios["skf-raw"], first=skf_first)
+
+
 def _speeds(text):
     """The ranges the README quotes: the operator's ratios on one and two threads, epochs'."""
     operator, epochs = _operator(text), _epochs(text)
@@ -483,6 +509,34 @@ QUOTES = (
         "load average {load_lo:.0f} to {load_hi:.0f}",
         "validation/bench/epochs.md",
         read=_epochs,
+    ),
+    Quote(
+        "docs/performance.md",
+        "| MNE sLORETA, raw, 2 BLAS threads | {mne_sloreta_raw2_wall:.2f} | "
+        "{mne_sloreta_raw2_cpu:.2f} | 1 | |\n| SKF, raw, 2 BLAS threads | {skf_raw2_wall:.2f} | "
+        "{skf_raw2_cpu:.2f} | {skf_raw2_ratio} | <= 2 |\n| MNE sLORETA, raw, 1 BLAS thread | "
+        "{mne_sloreta_raw1_wall:.2f} | {mne_sloreta_raw1_cpu:.2f} | 1 | |\n| SKF, raw, 1 BLAS "
+        "thread | {skf_raw1_wall:.2f} | {skf_raw1_cpu:.2f} | {skf_raw1_ratio} | <= 2 |",
+        "validation/bench/epochs.md",
+        read=_record,
+    ),
+    Quote(
+        "docs/performance.md",
+        "| MNE sLORETA, `apply_inverse` | {first_mne_sloreta2_wall:.2f} | "
+        "{first_mne_sloreta2_cpu:.2f} | {first_mne_sloreta1_wall:.2f} | |\n| SKF, priors fixed "
+        "in the operator | {first_skf2_wall:.2f} | {first_skf2_cpu:.2f} | "
+        '{first_skf1_wall:.2f} | < 2 |\n| SKF, priors chosen by the data (`"auto"`, the '
+        "default) | {first_skf_auto2_wall:.2f} | {first_skf_auto2_cpu:.2f} | "
+        "{first_skf_auto1_wall:.2f} | |",
+        "validation/bench/epochs.md",
+        read=_record,
+    ),
+    Quote(
+        "docs/performance.md",
+        "gave the SKF {skf_ratio} times MNE on epochs, {raw_ratio} on the recording and "
+        "{first:.2f} s for a first application",
+        "validation/bench/epochs-before.md",
+        read=lambda text: _before(text),
     ),
     Quote(
         "docs/mne.md",

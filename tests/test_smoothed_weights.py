@@ -216,3 +216,43 @@ def test_the_dense_smoother_takes_a_filter_output_with_column_weights_only():
     _, z = dense.smooth(f, "rts-state", eye, 1.25)
     _, z_columns = dense.smooth({k: v for k, v in f.items() if k != "W"}, "rts-state", eye, 1.25)
     np.testing.assert_allclose(z_columns, z, rtol=1e-12)
+
+
+@pytest.mark.parametrize("standardize", ["column", "position"])
+def test_weights_held_inside_a_long_ar1_recording_equal_every_steps_own(standardize):
+    # The AR(1) prior's smoothed weights settle between the filter's transient at the start
+    # and the smoother's at the end: those steps are one product with held weights
+    # (smoothed_weights.HeldInterior), equal to the dense path's and to every step's own.
+    from skf_ref.method import StateSpaceModel
+    from skf_ref.method._paths import smoothed_weights
+    from skf_ref.method._paths.spectral import SpectralModel
+    from tests.rounding import ROUTE_RTOL
+    from tests.rounding import relative as route_relative
+
+    rng = np.random.default_rng(5)
+    L, T = rng.standard_normal((8, 12)), 400
+    Y = rng.standard_normal((8, T))
+    settings = dict(noise_std=1.0, theta0=1.0, q=0.19, transition=0.9)
+    kwargs = dict(standardize=standardize, n_orient=3)
+    dense_z = reconstruct(
+        L, Y, **settings, exponent=0.5, smoother="rts-smoothed-weights", method="dense", **kwargs
+    ).z
+    model = SpectralModel(StateSpaceModel.create(L, **settings), T)
+    held = model.apply(Y, 0.5, "rts-smoothed-weights", standardize=standardize, n_orient=3)
+    weights = model.standardization(
+        0.5, block=3 if standardize == "position" else 1, smoothed=True
+    )
+    assert isinstance(weights, smoothed_weights.HeldInterior)
+    first, stop = weights.held_steps
+    assert 0 < first and stop < T and stop - first >= smoothed_weights.MIN_HELD
+    every = SpectralModel(StateSpaceModel.create(L, **settings), T)
+    every.standardization = lambda *args, smoothed=False: type(weights.parts[0][1])(
+        every.V, every._smoothed_weights(None)[0] if smoothed else every.recursions.omega,
+        T if smoothed else every.steady, T, 0.5
+    )  # fmt: skip
+    own = every.apply(Y, 0.5, "rts-smoothed-weights", standardize=standardize, n_orient=3)
+    assert route_relative(held.z, own.z) < ROUTE_RTOL
+    assert route_relative(held.z, dense_z) < ROUTE_RTOL
+    for _ in range(2):  # the second data set keeps the powers of the steps not held
+        again = model.apply(Y, 0.5, "rts-smoothed-weights", standardize=standardize, n_orient=3)
+        assert route_relative(again.z, held.z) < ROUTE_RTOL

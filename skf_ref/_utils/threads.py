@@ -12,7 +12,7 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, TypeVar
 
-__all__ = ["map_threads"]
+__all__ = ["map_threads", "one_blas_thread"]
 
 _T = TypeVar("_T")
 
@@ -22,6 +22,11 @@ def _blas() -> Any:
     from threadpoolctl import ThreadpoolController
 
     return ThreadpoolController()
+
+
+def one_blas_thread() -> Any:
+    """A context in which BLAS runs on one thread (threadpoolctl), for small products."""
+    return _blas().select(user_api="blas").limit(limits=1)
 
 
 def map_threads(func: Callable[[_T], Any], items: Iterable[_T]) -> Iterator[Any]:

@@ -11,6 +11,7 @@ covariance recursion; :meth:`SKFOperator.to_stc` makes the MNE source estimate.
 from __future__ import annotations
 
 import collections
+import contextlib
 import html
 from dataclasses import dataclass
 from typing import Any, cast
@@ -28,6 +29,7 @@ from .._utils.checks import (
 )
 from .._utils.log import logger
 from .._utils.precision import zero_tolerance
+from .._utils.threads import one_blas_thread
 from ..method import (
     Reconstruction,
     SpectralBasis,
@@ -55,6 +57,22 @@ _MODELS_KEPT = 4  # covariance recursions kept, one per number of samples and pr
 
 #: A prior SNR as an operator holds it: a number (dB), ``"auto"``, or a search range.
 Prior = float | str | tuple[float, float]
+
+
+#: Multiply-adds of a product below which it runs on one BLAS thread (about 10 ms of one core).
+_SMALL_PRODUCT = 2**25
+
+
+def _one_blas_thread(work: int) -> Any:
+    """One BLAS thread for a product of ``work`` multiply-adds below :data:`_SMALL_PRODUCT`
+    (a context; none for a larger one). An epoch's whitening and projection (rank x channels
+    x samples, 7e6 on the sample subject) took 20-70 ms on two BLAS threads on a machine
+    busy with other work, against 2-3 ms on one: the threads wait for a core each, for
+    little work (validation/epochs_bench.py). The rows of the outputs run on worker threads,
+    each on one BLAS thread, already (``skf_ref._utils.threads``)."""
+    if work >= _SMALL_PRODUCT:
+        return contextlib.nullcontext()
+    return one_blas_thread()
 
 
 def check_prior(name: str, value: Any) -> Prior:
@@ -493,7 +511,8 @@ class SKFOperator:
         # raw weights w_t (§2.2 eq. (7)) and the same z (eq. (6)), likelihood and "auto"
         # choice. So the whitened data alone are scaled (MNE's prepare_inverse_operator
         # scales noise and source covariance alike, to the same effect).
-        whitened = self.whitener @ data
+        with _one_blas_thread(self.whitener.size * data.shape[1]):
+            whitened = self.whitener @ data
         if nave != 1:
             whitened *= np.sqrt(nave)
         if not np.all(np.isfinite(whitened[:, ~missing])):
@@ -517,14 +536,16 @@ class SKFOperator:
         model = StateSpaceModel.create(
             self.leadfield, noise_std=1.0, theta0=theta0, q=q, transition=transition
         )
-        # "auto" and "spectral" reuse the operator's SVD (and recursions)
-        rec = run_checked(
-            model,
-            model.check_data(whitened),
-            settings,
-            memory_limit,
-            prepared=lambda: self._model(T, model),
-        )
+        # "auto" and "spectral" reuse the operator's SVD (and recursions); the r x T part
+        # (projection, filter) on one BLAS thread where it is small
+        with _one_blas_thread(self.whitener.size * T):
+            rec = run_checked(
+                model,
+                model.check_data(whitened),
+                settings,
+                memory_limit,
+                prepared=lambda: self._model(T, model),
+            )
         return rec.with_tuning(tuning)
 
     def to_stc(

@@ -23,14 +23,27 @@ computed as a sum of nonnegative terms, ``omega^s_t = epsilon_t + h_t / sigma_t`
 :class:`~.recursions.Recursions`). ``1 / sigma_t`` is carried rather than ``sigma_t``, so
 that nothing overflows when ``|a| > 1``. With ``a = 1`` ``sigma_t`` grows at every step:
 these weights never settle, and every step has its own.
+
+With ``|a| < 1`` (the AR(1) prior) they settle inside a long recording: the filter's
+recursion from the start, the smoother's from the end. Where every component stays within
+``STEADY_RTOL / 2`` of its value in the middle of the recording (the steady state's rule,
+``skf_ref.method._paths.recursions``), :func:`interior` holds that value, and
+:class:`HeldInterior` standardizes those steps by one product, ``z_t = (F V) u_t``, as the
+filter's steady state does; only the steps at either end have weights (or blocks, and
+their powers) of their own.
 """
+
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .recursions import Recursions, recurrence
+from .recursions import STEADY_RTOL, Recursions, recurrence
 
-__all__ = ["inverse_prior_variance", "smoothed_weights"]
+__all__ = ["HeldInterior", "interior", "inverse_prior_variance", "smoothed_weights"]
+
+#: Held steps below which the weights are not worth holding (one chunk of positions' steps).
+MIN_HELD = 128
 
 _Array = NDArray[np.float64]
 
@@ -91,3 +104,93 @@ def smoothed_weights(recursions: Recursions, q: float, theta0: float) -> tuple[_
         steps = np.minimum(np.arange(T - 1), len(gamma) - 1)  # the held gain past the stored
         recurrence(gamma[steps] ** 2, g[:-1], start=g[-1], out=h[:-1], reverse=True)
     return epsilon + h * inverse_sigma[:, None], inverse_sigma
+
+
+def interior(omega: _Array) -> tuple[int, int] | None:
+    """The steps ``first:stop`` (around the middle of the recording) where every component of
+    ``omega`` (n_times, r) stays within ``STEADY_RTOL / 2`` of its value at the middle step,
+    or None (fewer than :data:`MIN_HELD` such steps, or a missing step in the middle).
+
+    Examples
+    --------
+    >>> omega = np.ones((400, 2)); omega[:50] = 2.0; omega[-10:] = 3.0
+    >>> interior(omega)
+    (50, 390)
+    """
+    middle = len(omega) // 2
+    target = omega[middle]
+    with np.errstate(invalid="ignore"):
+        close = (np.abs(omega - target) <= STEADY_RTOL / 2 * target).all(axis=1)
+    if not close[middle]:
+        return None
+    first = middle - int(np.argmin(close[middle::-1])) + 1 if not close[: middle + 1].all() else 0
+    after = close[middle:]
+    stop = middle + int(np.argmin(after)) if not after.all() else len(omega)
+    return (first, stop) if stop - first >= MIN_HELD else None
+
+
+class HeldInterior:
+    """A standardization by weights held on the steps ``first:stop`` (:func:`interior`),
+    their own at the steps before and after: three standardizations of the kind given
+    (``Standardization`` or ``BlockStandardization``), each over its own steps, the middle
+    one held from its first step on.
+
+    Parameters
+    ----------
+    kind : type
+        ``Standardization`` or ``BlockStandardization``.
+    V : ndarray, shape (n_sources, r)
+    omega : ndarray, shape (n_times, r)
+        Every step's weights (``omega^s``).
+    held : (int, int)
+        ``first, stop``: the steps held at ``omega`` of the middle step (within
+        ``STEADY_RTOL / 2`` of which every one of them is).
+    exponent : float
+    """
+
+    def __init__(
+        self, kind: Any, V: _Array, omega: _Array, held: tuple[int, int], exponent: float
+    ) -> None:
+        first, stop = held
+        T = len(omega)
+        self.align, self.exponent, self.n_times = kind.align, exponent, T
+        self.held_steps = held
+        parts = []  # (first step, standardization of its steps)
+        if first > 0:  # every step its own
+            parts.append((0, kind(V, omega[:first], first, first, exponent)))
+        middle = T // 2
+        parts.append((first, kind(V, omega[middle : middle + 1], 0, stop - first, exponent)))
+        if stop < T:
+            parts.append((stop, kind(V, omega[stop:], T - stop, T - stop, exponent)))
+        self.parts = parts
+
+    @property
+    def applications(self) -> int:
+        """int : Data sets this standardization served (each part's count)."""
+        return self.parts[0][1].applications
+
+    @applications.setter
+    def applications(self, value: int) -> None:
+        for _, part in self.parts:
+            part.applications = value
+
+    @property
+    def kept(self) -> bool:
+        """bool : Whether the weights of the steps not held are kept."""
+        return any(part.kept for _, part in self.parts)
+
+    def prepare(self) -> None:
+        """Each part's shared work, in the calling thread."""
+        for _, part in self.parts:
+            part.prepare()
+
+    def standardized(self, u: _Array, rows: slice, times: slice, out: _Array) -> _Array:
+        """``z_t`` of ``rows`` at ``times`` into ``out`` (n_rows, n_steps), each part on its
+        own steps, for whitened coordinates ``u`` (n_times, r)."""
+        for start, part in self.parts:
+            stop = start + part.n_times
+            first, last = max(times.start, start), min(times.stop, stop)
+            if first < last:
+                where = out[:, first - times.start : last - times.start]
+                part.standardized(u[start:stop], rows, slice(first - start, last - start), where)
+        return out

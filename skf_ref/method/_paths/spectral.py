@@ -98,11 +98,11 @@ from .._standardization import check_positions_seen, overflow_cause
 from .block_weights import BlockStandardization
 from .recursions import Recursions
 from .singular_basis import SpectralBasis, log_likelihood
-from .smoothed_weights import smoothed_weights
+from .smoothed_weights import HeldInterior, interior, smoothed_weights
 from .spectral_rows import SpectralRows
 from .weights import Standardization
 
-_Weights = Standardization | BlockStandardization
+_Weights = Standardization | BlockStandardization | HeldInterior
 
 __all__ = ["SpectralModel", "run"]
 
@@ -226,9 +226,13 @@ class SpectralModel:
         key = (float(exponent), block, smoothed)
         if key not in kept:
             omega, steady = recursions.omega, recursions.steady
-            if smoothed:  # every step its own weights: nothing is held
-                omega, steady = self._smoothed_weights(missing)[0], self.n_times
             kind = BlockStandardization if block == 3 else Standardization
+            if smoothed:  # held inside the recording if they settle there, else every step
+                omega, steady = self._smoothed_weights(missing)[0], self.n_times
+                held = interior(omega)
+                if held is not None:
+                    kept[key] = HeldInterior(kind, self.V, omega, held, float(exponent))
+                    return kept[key]
             kept[key] = kind(self.V, omega, steady, self.n_times, float(exponent))
         return kept[key]
 
@@ -334,11 +338,13 @@ class SpectralModel:
         if smoother == "rts-smoothed-weights":
             weights = self.standardization(exponent, missing, block, smoothed=True)
             smoothed = (weights, self._smoothed_weights(missing)[1])
+        filtered = self.standardization(exponent, missing, block)
+        assert not isinstance(filtered, HeldInterior)  # the filter's: held from steady on
         rows = SpectralRows(
             self.V,
             self.a,
             recursions,
-            self.standardization(exponent, missing, block),
+            filtered,
             xi,
             smoother,
             memory_limit=memory_limit,

@@ -75,7 +75,7 @@ class SpectralRows:
     smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
     memory_limit : float, optional
         Bytes a whole output (:meth:`array`) may take; default half the memory available.
-    smoothed : (Standardization or BlockStandardization, ndarray), optional
+    smoothed : (Standardization or BlockStandardization or HeldInterior, ndarray), optional
         For ``"rts-smoothed-weights"``: the standardization of the smoothed state by its
         own variance and ``1 / sigma_t`` (n_times,), its whitening
         (``skf_ref.method._paths.smoothed_weights``).
@@ -90,7 +90,7 @@ class SpectralRows:
         xi: NDArray[np.float64],
         smoother: str | None,
         memory_limit: float | None = None,
-        smoothed: tuple[Standardization | BlockStandardization, _Array] | None = None,
+        smoothed: tuple[Any, _Array] | None = None,
     ) -> None:
         self.V, self.a, self.xi = V, a, xi
         self.n_sources, self.n_times = self.V.shape[0], len(xi)
