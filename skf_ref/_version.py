@@ -4,4 +4,4 @@ __all__ = ["__version__"]
 
 #: The version of skf_ref (``skf-ref --version`` prints it), as setup.cfg and CHANGELOG.md
 #: give it.
-__version__ = "0.5.0"
+__version__ = "0.6.0"

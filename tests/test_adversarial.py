@@ -38,7 +38,7 @@ def _model(m=6, n=8, T=5, seed=0):
 
 def _run(method="spectral", **change):
     L, Y = _model()
-    kwargs = dict(noise_std=0.1, theta0=1.0, q=0.1, method=method) | change
+    kwargs = dict(noise_std=0.1, theta0=1.0, q=0.1, path=method) | change
     rec = reconstruct(kwargs.pop("L", L), kwargs.pop("Y", Y), **kwargs)
     return rec, rec.z, rec.weights  # every output computed
 
@@ -59,8 +59,8 @@ def test_a_growing_transition_stays_finite_and_equals_dense(a, n_times, smoother
     rng = np.random.default_rng(0)
     L, Y = rng.standard_normal((6, 3)), rng.standard_normal((6, n_times))
     kwargs = dict(noise_std=0.1, theta0=1.0, q=0.1, transition=a, smoother=smoother)
-    spectral, dense = reconstruct(L, Y, **kwargs), reconstruct(L, Y, **kwargs, method="dense")
-    assert spectral.method == "spectral"
+    spectral, dense = reconstruct(L, Y, **kwargs), reconstruct(L, Y, **kwargs, path="dense")
+    assert spectral.path == "spectral"
     for name in ("z", "x", "weights"):
         assert relative(getattr(spectral, name), getattr(dense, name)) < CROSS_PATH_RTOL, name
 
@@ -141,7 +141,7 @@ def test_spectral_accuracy_with_lead_field_columns_of_very_different_size(c):
     L, Y = _model(6, 9, 3)
     L[:, 2] *= c
     z_ref, w_ref = _mp_reference(L, Y, 0.5, 1.0, 0.1, 0.5)
-    rec = reconstruct(L, Y, noise_std=0.5, theta0=1.0, q=0.1, method="spectral")
+    rec = reconstruct(L, Y, noise_std=0.5, theta0=1.0, q=0.1, path="spectral")
     per_column = np.max(np.abs(rec.z - z_ref), axis=1) / np.max(np.abs(z_ref), axis=1)
     assert per_column.max() < 1e-12
     per_column = np.max(np.abs(rec.weights - w_ref), axis=1) / np.max(np.abs(w_ref), axis=1)
@@ -199,7 +199,7 @@ def test_ill_conditioned_covariances_say_what_failed(method):
     L, Y = rng.standard_normal((4, 8)), rng.standard_normal((4, 60))
     kwargs = dict(noise_std=0.1, theta0=1.0, q=0.1, transition=2.0)
     with pytest.raises(InputError, match=r"failed at step \d+: .*eigenvalues from .*spectral"):
-        reconstruct(L, Y, **kwargs, method=method)
+        reconstruct(L, Y, **kwargs, path=method)
     assert np.isfinite(reconstruct(L, Y, **kwargs, smoother="rts-standardized").z).all()
 
 

@@ -49,9 +49,9 @@ def test_every_path_computes_the_ar1_prior(smoother, standardize, time_constant_
     problem = ar1_problem(1, time_constant_ms=time_constant_ms)
     assert 0 < problem["transition"] < 1
     options = dict(smoother=smoother, standardize=standardize, n_orient=3, exponent=1.25)
-    reference = reconstruct(**problem, **options, method="dense")
+    reference = reconstruct(**problem, **options, path="dense")
     for method in ("filterpy", "spectral"):
-        other = reconstruct(**problem, **options, method=method)
+        other = reconstruct(**problem, **options, path=method)
         for name in QUANTITIES:
             assert relative(getattr(other, name), getattr(reference, name)) <= EQUALITY_RTOL, (
                 method,

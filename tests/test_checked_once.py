@@ -64,7 +64,7 @@ def test_reconstruct_checks_once(count, path, standardize):
         theta0=1.0,
         q=0.1,
         smoother="rts-state",
-        method=path,
+        path=path,
         standardize=standardize,
         n_orient=3,
     )
@@ -98,7 +98,7 @@ def test_make_skf_operator_takes_no_settings_and_checks_none(count, mne_problem)
 def test_the_operator_checks_once(count, mne_problem, path):
     *_, epochs, _, operator = mne_problem
     data = operator.select(epochs.info, epochs.get_data()[0])
-    operator.reconstruct(data, method=path, smoother="rts-state")
+    operator.reconstruct(data, path=path, smoother="rts-state")
     assert count == {"check_settings": 1, "check_gaps": 1}
 
 
@@ -106,9 +106,9 @@ def test_the_operator_checks_once(count, mne_problem, path):
 def test_apply_skf_checks_once_with_an_operator_or_without(count, mne_problem, path):
     forward, cov, epochs, _, operator = mne_problem
     evoked = epochs.average()
-    skf_ref.apply_skf(evoked, operator, method=path)
+    skf_ref.apply_skf(evoked, operator, path=path)
     assert count == {"check_settings": 1, "check_gaps": 1}
-    skf_ref.apply_skf(evoked, forward, cov, method=path)  # the operator made inside
+    skf_ref.apply_skf(evoked, forward, cov, path=path)  # the operator made inside
     assert count == {"check_settings": 2, "check_gaps": 2}
 
 
@@ -116,7 +116,7 @@ def test_apply_skf_checks_once_with_an_operator_or_without(count, mne_problem, p
 def test_apply_skf_epochs_checks_once_for_all_epochs(count, mne_problem, return_generator):
     *_, epochs, _, operator = mne_problem
     estimates = skf_ref.apply_skf_epochs(
-        epochs, operator, method="dense", smoother=None, return_generator=return_generator
+        epochs, operator, path="dense", smoother=None, return_generator=return_generator
     )
     assert count["check_settings"] == 1  # before any epoch, even for a generator
     assert len(list(estimates)) == len(epochs) == 4

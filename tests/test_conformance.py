@@ -84,7 +84,7 @@ def test_the_package_has_not_drifted_from_the_pinned_outputs(name):
     methods = ["dense", "filterpy"] + ["spectral"] * (np.ndim(case.inputs["transition"]) == 0)
     for method in methods:
         rec = case.reconstruct(method)
-        assert rec.method == method
+        assert rec.path == method
         assert compare(case, rec).agrees, (method, compare(case, rec).report())
         for output in OUTPUTS:
             difference = _relative(getattr(rec, output), case.expected[output])

@@ -1,7 +1,7 @@
 """Properties of the SKF core: every reconstruct path against closed forms and invariants.
 
 The class ``TestPaths`` runs over every computational path through the ``method`` fixture;
-add a path to ``METHODS`` and every property below is proved for it too.
+add a path to ``PATHS`` and every property below is proved for it too.
 """
 
 import tracemalloc
@@ -15,7 +15,7 @@ from skf_ref import Reconstruction, StandardizedKalmanFilter, priors_from_snr, r
 from skf_ref._utils.memory import covariance_memory
 from skf_ref.method._paths import dense
 
-METHODS = ("filterpy", "dense", "spectral")
+PATHS = ("filterpy", "dense", "spectral")
 # Paths for general linear-Gaussian models (spectral needs A = a I, P_0 = theta0 I, Q = q I
 # and raises otherwise), and the paths that store covariances (the memory guard's).
 GENERAL_PATHS = ("filterpy", "dense")
@@ -44,7 +44,7 @@ CROSS_PATH_RTOL = 1e-8
 PLAIN_LOOP_RTOL = 1e-9
 
 
-@pytest.fixture(params=METHODS)
+@pytest.fixture(params=PATHS)
 def method(request):
     """Every computational path of ``reconstruct``."""
     return request.param
@@ -150,7 +150,7 @@ class TestPaths:
         # P_{1|0} = theta0 + q = p
         theta0, q = (1 - split) * p, split * p
         rec = reconstruct(
-            L, y[:, None], **noise_kwargs, theta0=theta0, q=q, exponent=0.5, method=method
+            L, y[:, None], **noise_kwargs, theta0=theta0, q=q, exponent=0.5, path=method
         )
         x, resolution = self.sloreta(L, y, p, sigma=sigma, R=R)
         assert_relative(rec.x_filtered[:, 0], x, CLOSED_FORM_RTOL)
@@ -165,7 +165,7 @@ class TestPaths:
         sigma, p = 1e-6, 5e-16
         y = simulate(rng, L, 1, sigma, np.sqrt(p))[:, 0]
         rec = reconstruct(
-            L, y[:, None], noise_std=sigma, theta0=p, q=0.0, exponent=exponent, method=method
+            L, y[:, None], noise_std=sigma, theta0=p, q=0.0, exponent=exponent, path=method
         )
         x, resolution = self.sloreta(L, y, p, sigma=sigma)
         weights = (resolution / p) ** (-exponent)
@@ -181,7 +181,7 @@ class TestPaths:
         L = lead_field(rng, 16, 40, reference)
         theta0, _ = priors_from_snr(L, 1e-6, 10.0, 0.0, 1)
         for j in range(L.shape[1]):
-            rec = reconstruct(L, L[:, [j]], noise_std=1e-6, theta0=theta0, q=0.0, method=method)
+            rec = reconstruct(L, L[:, [j]], noise_std=1e-6, theta0=theta0, q=0.0, path=method)
             assert np.argmax(np.abs(rec.z[:, 0])) == j
 
     # --- invariance under a change of units --------------------------------------------------
@@ -197,7 +197,7 @@ class TestPaths:
             q=q,
             exponent=1.25,
             smoother=smoother,
-            method=method,
+            path=method,
         )
 
     @pytest.mark.parametrize("smoother", SMOOTHERS)
@@ -237,7 +237,7 @@ class TestPaths:
 
     @pytest.mark.parametrize("smoother", SMOOTHERS)
     def test_smoothed_equals_filtered_at_last_step(self, method, problem, smoother):
-        rec = reconstruct(**problem, exponent=1.25, smoother=smoother, method=method)
+        rec = reconstruct(**problem, exponent=1.25, smoother=smoother, path=method)
         assert_relative(rec.z[:, -1], rec.z_filtered[:, -1], LAST_STEP_RTOL)
         # ... and smoothing did change the earlier steps
         assert relative_change(rec.z[:, :-1], rec.z_filtered[:, :-1]) > 1e-3
@@ -249,8 +249,8 @@ class TestPaths:
 
     def test_the_filter_is_causal(self, method, problem):
         # z_{t|t} uses y_1..y_t only: the first steps of a longer run equal a shorter run
-        full = reconstruct(**problem, exponent=1.25, method=method)
-        short = reconstruct(**problem | {"Y": problem["Y"][:, :4]}, exponent=1.25, method=method)
+        full = reconstruct(**problem, exponent=1.25, path=method)
+        short = reconstruct(**problem | {"Y": problem["Y"][:, :4]}, exponent=1.25, path=method)
         assert_relative(full.z_filtered[:, :4], short.z_filtered, LAST_STEP_RTOL)
         assert_relative(full.weights[:, :4], short.weights, LAST_STEP_RTOL)
         # ... and no smoother means the filter's own sequence
@@ -262,7 +262,7 @@ class TestPaths:
         # w_t = diag(P^-1/2 K S K^T P^-1/2) with K S K^T = P_{t|t-1} - P_{t|t} <= P_{t|t-1}:
         # every raw weight is in (0, 1], so W = w^-alpha >= 1. Weights from P_{t|t} instead of
         # P_{t|t-1} (a known slip) exceed 1.
-        rec = reconstruct(**problem, exponent=1.25, smoother=smoother, method=method)
+        rec = reconstruct(**problem, exponent=1.25, smoother=smoother, path=method)
         raw = rec.weights ** (-1 / 1.25)
         assert raw.min() > 0 and raw.max() <= 1 + 1e-12
 
@@ -292,21 +292,21 @@ class TestPaths:
 
     @pytest.mark.parametrize("method", GENERAL_PATHS)
     def test_log_likelihood(self, method, general):
-        rec = reconstruct(**general, method=method)
+        rec = reconstruct(**general, path=method)
         expected = np.sum(self.plain(general, 0.5)["log_pdf"])
         assert rec.log_likelihood == pytest.approx(expected, rel=PLAIN_LOOP_RTOL)
 
     @pytest.mark.parametrize("method", GENERAL_PATHS)
     @pytest.mark.parametrize("exponent", [0.5, 1.25])
     def test_filter_matches_plain_loop(self, method, general, exponent):
-        rec = reconstruct(**general, exponent=exponent, method=method)
+        rec = reconstruct(**general, exponent=exponent, path=method)
         f = self.plain(general, exponent)
         assert_relative(rec.x_filtered, f["x_filt"].T, PLAIN_LOOP_RTOL)
         assert_relative(rec.z_filtered, f["z"].T, PLAIN_LOOP_RTOL)
 
     @pytest.mark.parametrize("method", GENERAL_PATHS)
     def test_rts_state_matches_textbook(self, method, general):
-        rec = reconstruct(**general, exponent=1.25, smoother="rts-state", method=method)
+        rec = reconstruct(**general, exponent=1.25, smoother="rts-state", path=method)
         f = self.plain(general, 1.25)
         A, xs = general["transition"], f["x_filt"].copy()
         for t in range(len(xs) - 2, -1, -1):
@@ -319,7 +319,7 @@ class TestPaths:
 
     @pytest.mark.parametrize("method", GENERAL_PATHS)
     def test_rts_standardized_matches_recursion(self, method, general):
-        rec = reconstruct(**general, exponent=1.25, smoother="rts-standardized", method=method)
+        rec = reconstruct(**general, exponent=1.25, smoother="rts-standardized", path=method)
         f = self.plain(general, 1.25)
         A, z = general["transition"], f["z"]
         s = z.copy()
@@ -337,12 +337,12 @@ class TestPaths:
         L = lead_field(rng, 8, 15)  # 5 free-orientation positions
         Y = simulate(rng, L, 6, 1e-6, 1e-8)
         rec = reconstruct(
-            L, Y, noise_std=1e-6, theta0=1e-16, q=1e-17, smoother=smoother, method=method
+            L, Y, noise_std=1e-6, theta0=1e-16, q=1e-17, smoother=smoother, path=method
         )
         assert isinstance(rec, Reconstruction)
         assert repr(rec).startswith("<Reconstruction | 15 sources x 6 steps")
         assert rec.settings == {
-            "method": method,
+            "path": method,
             "exponent": 0.5,
             "smoother": smoother,
             "standardize": "column",
@@ -368,7 +368,7 @@ class TestPaths:
     @pytest.mark.parametrize("smoother", [None, *SMOOTHERS])
     def test_inputs_not_mutated(self, method, problem, smoother):
         copies = {k: np.copy(v) for k, v in problem.items()}
-        reconstruct(**problem, smoother=smoother, method=method)
+        reconstruct(**problem, smoother=smoother, path=method)
         for name, value in problem.items():
             np.testing.assert_array_equal(value, copies[name], err_msg=name)
 
@@ -376,16 +376,16 @@ class TestPaths:
     @pytest.mark.parametrize("smoother", [None, *SMOOTHERS])
     def test_matrix_inputs_not_mutated(self, method, general, smoother):
         copies = {k: v.copy() for k, v in general.items()}
-        reconstruct(**general, smoother=smoother, method=method)
+        reconstruct(**general, smoother=smoother, path=method)
         for name, value in general.items():
             np.testing.assert_array_equal(value, copies[name], err_msg=name)
 
     @pytest.mark.parametrize("method", COVARIANCE_PATHS)
     def test_memory_guard(self, method, problem):
-        with pytest.raises(MemoryError, match=r"about [0-9.e+-]+ GiB.*method='spectral'"):
-            reconstruct(**problem, method=method, memory_limit=1000)
+        with pytest.raises(MemoryError, match=r"about [0-9.e+-]+ GiB.*path='spectral'"):
+            reconstruct(**problem, path=method, memory_limit=1000)
         # enough memory: no error
-        reconstruct(**problem, method=method, memory_limit=2**30)
+        reconstruct(**problem, path=method, memory_limit=2**30)
 
     @pytest.mark.parametrize("method", COVARIANCE_PATHS)
     @pytest.mark.parametrize(
@@ -406,7 +406,7 @@ class TestPaths:
                 theta0=1e-16,
                 q=1e-17,
                 smoother=smoother,
-                method=method,
+                path=method,
                 memory_limit=limit,
             )
             peak = tracemalloc.get_traced_memory()[1]
@@ -425,8 +425,8 @@ def test_auto_takes_spectral_exactly_when_the_model_qualifies(change, expected):
     L = lead_field(rng, 6, 9)
     kwargs = {"noise_std": 1e-6, "theta0": 1e-16, "q": 1e-17, "smoother": "rts-state"} | change
     Y = simulate(rng, L, 3, 1e-6, 1e-8)
-    auto, reference = reconstruct(L, Y, **kwargs), reconstruct(L, Y, **kwargs, method="dense")
-    assert auto.method == expected
+    auto, reference = reconstruct(L, Y, **kwargs), reconstruct(L, Y, **kwargs, path="dense")
+    assert auto.path == expected
     for name in ("z", "x", "z_filtered", "x_filtered", "weights"):
         assert_relative(getattr(auto, name), getattr(reference, name), CROSS_PATH_RTOL, name)
 

@@ -103,7 +103,7 @@ def test_main_fails_on_a_wrong_path(monkeypatch, capsys):
     reconstruct = cc.reconstruct
 
     def perturbed(L, Y, *, method, **kwargs):
-        result = reconstruct(L, Y, method=method, **kwargs)
+        result = reconstruct(L, Y, path=method, **kwargs)
         if method == "filterpy":
             z = result.z.copy()
             z[0, 0] *= 1 + 1e-6

@@ -51,14 +51,14 @@ def test_a_long_run_warns_before_it_starts(method):
     # before any work, after the warning
     L, Y = np.eye(4, 3000) + 1.0, np.ones((4, 2000))
     expected = rf"method='{method}' on 3000 sources x 2000 steps is estimated to take 1.08e\+06 s"
-    with pytest.warns(UserWarning, match=expected + ".*method='spectral' computes this"):
+    with pytest.warns(UserWarning, match=expected + ".*path='spectral' computes this"):
         with pytest.raises(MemoryError, match="stores 2000 covariances"):
-            reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, method=method, memory_limit=1e6)
+            reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, path=method, memory_limit=1e6)
 
 
 def test_a_short_run_does_not_warn_unless_the_machine_is_slow(monkeypatch):
     L, Y = _problem()
-    kwargs = dict(noise_std=1.0, theta0=1.0, q=0.1, method="dense")
+    kwargs = dict(noise_std=1.0, theta0=1.0, q=0.1, path="dense")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         reconstruct(L, Y, **kwargs)
@@ -72,14 +72,14 @@ def test_a_short_run_does_not_warn_unless_the_machine_is_slow(monkeypatch):
 
 
 def test_the_settings_are_checked_in_one_place():
-    assert check_settings() == Settings(exponent=0.5, smoother=None, method="auto")
+    assert check_settings() == Settings(exponent=0.5, smoother=None, path="auto")
     assert check_settings(1, "none", "dense") == Settings(1.0, None, "dense")
     L, Y = _problem()
     for kwargs, match in [
         (dict(exponent=-1), "exponent must be >= 0, got -1.0"),
         (dict(exponent="1"), r"exponent must be a real number, got '1' \(str\)"),
         (dict(smoother="rts"), r"smoother must be one of \[None, 'rts-standardized', 'rts-st"),
-        (dict(method="kalman"), r"method must be one of \['auto', 'filterpy', 'dense', 'spe"),
+        (dict(method="kalman"), r"path must be one of \['auto', 'filterpy', 'dense', 'spe"),
     ]:
         with pytest.raises(InputError, match=match):
             check_settings(**kwargs)
@@ -96,7 +96,7 @@ def test_one_memory_budget(monkeypatch):
     L, Y = _problem(n=5000, T=3)
     with pytest.warns(UserWarning, match="estimated to take"):  # and then refused
         with pytest.raises(MemoryError, match=r"'dense' stores 3 covariances .* budget of 0.5"):
-            reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, method="dense")
+            reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, path="dense")
 
 
 def test_a_reconstruction_and_a_tuning_show_as_tables_in_a_notebook():

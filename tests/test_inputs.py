@@ -171,7 +171,7 @@ CASES = {
     "unknown method": (
         _with("method", "cuda"),
         ValueError,
-        r"method must be one of \[.*'filterpy', 'dense'.*\], got 'cuda'",
+        r"path must be one of \[.*'filterpy', 'dense'.*\], got 'cuda'",
     ),
     "transition wrong shape": (
         _with("transition", np.eye(N + 1)),
@@ -192,7 +192,7 @@ CASES = {
 @pytest.mark.parametrize("method", ["filterpy", "dense"])
 def test_bad_input_raises_naming_the_parameter(case, method):
     arguments, error, match = CASES[case]
-    kwargs = {"method": method, **arguments()}
+    kwargs = {"path": method, **arguments()}
     with pytest.raises(error, match=match):
         reconstruct(**kwargs)
 
@@ -200,7 +200,7 @@ def test_bad_input_raises_naming_the_parameter(case, method):
 def test_valid_arguments_pass():
     # The cases above are the valid arguments with one thing wrong: the base must work.
     for method in ("filterpy", "dense"):
-        rec = reconstruct(**_valid(), method=method)
+        rec = reconstruct(**_valid(), path=method)
         assert rec.z.shape == (N, T)
 
 
@@ -275,7 +275,7 @@ def test_a_static_state_needs_no_process_noise():
 
 
 def test_a_static_state_of_a_matrix_transition_needs_no_process_noise():
-    rec = reconstruct(**_with("q", 0.0)(), transition=0.5 * np.eye(N), method="dense")
+    rec = reconstruct(**_with("q", 0.0)(), transition=0.5 * np.eye(N), path="dense")
     assert np.isfinite(rec.z).all()
 
 
@@ -285,19 +285,19 @@ def test_white_sources_need_no_transition():
 
 
 def test_white_sources_need_no_transition_matrix():
-    rec = reconstruct(**_valid(), transition=np.zeros((N, N)), method="dense")
+    rec = reconstruct(**_valid(), transition=np.zeros((N, N)), path="dense")
     np.testing.assert_allclose(rec.z, reconstruct(**_valid(), transition=0.0).z, rtol=1e-12)
 
 
 def test_a_process_noise_matrix_without_transition():
-    rec = reconstruct(**_with("q", 0.1 * np.eye(N))(), transition=0.0, method="dense")
-    scalar = reconstruct(**_valid(), transition=0.0, method="dense")
+    rec = reconstruct(**_with("q", 0.1 * np.eye(N))(), transition=0.0, path="dense")
+    scalar = reconstruct(**_valid(), transition=0.0, path="dense")
     np.testing.assert_allclose(rec.z, scalar.z, rtol=1e-12)
 
 
 def test_a_process_noise_matrix_with_a_random_walk():
-    rec = reconstruct(**_with("q", 0.1 * np.eye(N))(), transition=1.0, method="dense")
-    np.testing.assert_allclose(rec.z, reconstruct(**_valid(), method="dense").z, rtol=1e-12)
+    rec = reconstruct(**_with("q", 0.1 * np.eye(N))(), transition=1.0, path="dense")
+    np.testing.assert_allclose(rec.z, reconstruct(**_valid(), path="dense").z, rtol=1e-12)
 
 
 # --- memory_limit: one check for every entry point that takes one --------------------------

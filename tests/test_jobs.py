@@ -96,7 +96,7 @@ def test_outputs_computed_at_once_stay_as_they_are():
 
     rng = np.random.default_rng(1)
     L, Y = rng.standard_normal((8, 12)), rng.standard_normal((8, 20))
-    rec = skf_ref.reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, method="dense")
+    rec = skf_ref.reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, path="dense")
     z = rec.z
     rows_in_jobs(rec, 3, Jobs(2, 2, False))
     assert rec.z is z

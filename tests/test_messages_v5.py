@@ -261,7 +261,7 @@ def test_smoothed_weights_leave_no_estimate_at_a_missing_step(method, standardiz
     rng = np.random.default_rng(3)
     L, Y = rng.standard_normal((6, 9)), rng.standard_normal((6, 30))
     Y[:, 10:14] = np.nan
-    rec = reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, method=method,
+    rec = reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, path=method,
                       smoother="rts-smoothed-weights", standardize=standardize,
                       n_orient=3 if standardize == "position" else None)  # fmt: skip
     assert (

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from skf_ref import InputError, Reconstruction, priors_from_snr, reconstruct
 from skf_ref.method import SpectralBasis, SpectralModel, StateSpaceModel
 
-METHODS = ("dense", "filterpy", "spectral")
+PATHS = ("dense", "filterpy", "spectral")
 #: The paths agree to rounding on these small problems: filterpy updates P in Joseph form
 #: and forms S^-1, the spectral path works in the singular basis (test_core's tolerance).
 PATHS_RTOL = 1e-10
@@ -42,18 +42,18 @@ def problem(seed=0, m=6, n=9, T=40, gaps=((0, 1), (12, 17), (38, 40))):
 @pytest.mark.parametrize("method", ["filterpy", "spectral"])
 def test_every_path_treats_a_gap_as_the_dense_one(method, smoother):
     kwargs = dict(problem(), smoother=smoother, exponent=1.25)
-    dense = reconstruct(**kwargs, method="dense")
-    other = reconstruct(**kwargs, method=method)
+    dense = reconstruct(**kwargs, path="dense")
+    other = reconstruct(**kwargs, path=method)
     for name in OUTPUTS:
         assert relative(getattr(other, name), getattr(dense, name)) <= PATHS_RTOL, name
     assert other.log_likelihood == pytest.approx(dense.log_likelihood, rel=PATHS_RTOL)
     np.testing.assert_array_equal(other.missing, dense.missing)
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", PATHS)
 def test_a_missing_step_is_a_prediction_without_an_update(method):
     kwargs = problem(gaps=((12, 17),))
-    rec = reconstruct(**kwargs, transition=0.9, method=method)
+    rec = reconstruct(**kwargs, transition=0.9, path=method)
     gap = np.zeros(40, bool)
     gap[12:17] = True
     np.testing.assert_array_equal(rec.missing, gap)
@@ -67,13 +67,13 @@ def test_a_missing_step_is_a_prediction_without_an_update(method):
     assert np.isnan(rec.amplitude(3)[:, gap]).all()
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", PATHS)
 def test_the_estimate_before_a_gap_is_that_of_the_data_before_it(method):
     # the filter is causal: a gap at the end changes nothing before it, and the
     # log-likelihood sums the observed steps only
     kwargs = problem(gaps=((30, 40),))
-    gapped = reconstruct(**kwargs, method=method)
-    cut = reconstruct(**{**kwargs, "Y": kwargs["Y"][:, :30]}, method=method)
+    gapped = reconstruct(**kwargs, path=method)
+    cut = reconstruct(**{**kwargs, "Y": kwargs["Y"][:, :30]}, path=method)
     for name in ("z", "x", "weights"):
         np.testing.assert_allclose(getattr(gapped, name)[:, :30], getattr(cut, name), rtol=1e-12)
     assert gapped.log_likelihood == pytest.approx(cut.log_likelihood, rel=1e-12)
@@ -83,29 +83,29 @@ def test_the_data_inside_a_gap_never_matter():
     # whatever a gap hides, it is NaN: here the same data with another gap pattern inside
     # the gap give bit-equal estimates outside it, on the dense path (one operation order)
     kwargs = problem(gaps=((12, 17),))
-    first = reconstruct(**kwargs, method="dense", smoother="rts-state")
+    first = reconstruct(**kwargs, path="dense", smoother="rts-state")
     Y = kwargs["Y"].copy()
     Y[:, 12:17] = np.nan  # the same gap, re-made
-    second = reconstruct(**{**kwargs, "Y": Y}, method="dense", smoother="rts-state")
+    second = reconstruct(**{**kwargs, "Y": Y}, path="dense", smoother="rts-state")
     for name in OUTPUTS:
         np.testing.assert_array_equal(getattr(first, name), getattr(second, name))
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", PATHS)
 def test_the_state_smoother_interpolates_across_a_gap(method):
     kwargs = problem(gaps=((12, 17),))
-    smoothed = reconstruct(**kwargs, method=method, smoother="rts-state")
-    filtered = reconstruct(**kwargs, method=method)
+    smoothed = reconstruct(**kwargs, path=method, smoother="rts-state")
+    filtered = reconstruct(**kwargs, path=method)
     assert np.isfinite(smoothed.x).all()
     assert np.isnan(smoothed.z[:, 12:17]).all() and np.isfinite(smoothed.z[:, 17:]).all()
     # the data after the gap reach the smoothed state inside it (the filter's cannot)
     assert not np.allclose(smoothed.x[:, 12:17], filtered.x_filtered[:, 12:17])
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", PATHS)
 def test_the_papers_smoother_is_refused_over_a_gap(method):
     with pytest.raises(InputError, match=r"smoother='rts-standardized' is undefined over missing"):
-        reconstruct(**problem(), method=method, smoother="rts-standardized")
+        reconstruct(**problem(), path=method, smoother="rts-standardized")
     model = StateSpaceModel.create(**{k: v for k, v in problem().items() if k != "Y"})
     with pytest.raises(InputError, match=r"use smoother='rts-state'"):
         SpectralModel(model, 40).apply(problem()["Y"], 0.5, "rts-standardized")
@@ -122,15 +122,15 @@ def test_the_papers_smoother_is_refused_over_a_gap(method):
 def test_a_step_is_measured_on_every_channel_or_missing(change, match):
     kwargs = problem(gaps=())
     change(kwargs["Y"])
-    for method in METHODS:
+    for method in PATHS:
         with pytest.raises(InputError, match=match):
-            reconstruct(**kwargs, method=method)
+            reconstruct(**kwargs, path=method)
 
 
 def test_the_result_refuses_nan_outside_the_missing_steps():
     z = np.ones((2, 3))
     given = dict(log_likelihood=0.0, n_sources=2, n_times=3, exponent=0.5, smoother=None)
-    given |= dict(method="dense", theta0=1.0, q=1.0)
+    given |= dict(path="dense", theta0=1.0, q=1.0)
     gap = z.copy()
     gap[:, 1] = np.nan
     ok = Reconstruction(z=gap, x=z, z_filtered=gap, x_filtered=z, weights=gap, **given,
@@ -163,7 +163,7 @@ def test_the_steady_state_is_held_after_the_last_gap_only():
     gapped = reconstruct(**kwargs)
     whole = reconstruct(**{**kwargs, "Y": np.nan_to_num(kwargs["Y"])})
     assert whole.lazy_outputs.steady < 250 < 260 < gapped.lazy_outputs.steady < 600
-    dense = reconstruct(**kwargs, method="dense")
+    dense = reconstruct(**kwargs, path="dense")
     for name in OUTPUTS:
         assert relative(getattr(gapped, name), getattr(dense, name)) <= PATHS_RTOL, name
 
@@ -174,7 +174,7 @@ def test_the_likelihood_of_many_priors_skips_the_gaps():
     priors = (np.array([0.5, 1.0, 2.0]) * kwargs["theta0"], kwargs["q"] * np.ones(3))
     many = basis.log_likelihood(kwargs["Y"], *priors)
     for theta0, q, value in zip(*priors, many, strict=True):
-        one = reconstruct(**{**kwargs, "theta0": theta0, "q": q}, method="dense")
+        one = reconstruct(**{**kwargs, "theta0": theta0, "q": q}, path="dense")
         assert value == pytest.approx(one.log_likelihood, rel=1e-12)
 
 
@@ -210,9 +210,9 @@ def gapped_problems(draw):
 @pytest.mark.slow
 @given(gapped_problems())
 def test_paths_agree_on_random_gapped_problems(kwargs):
-    dense = reconstruct(**kwargs, method="dense")
+    dense = reconstruct(**kwargs, path="dense")
     for method in ("filterpy", "spectral"):
-        other = reconstruct(**kwargs, method=method)
+        other = reconstruct(**kwargs, path=method)
         for name in OUTPUTS:
             assert relative(getattr(other, name), getattr(dense, name)) <= 1e-8, (method, name)
         assert other.log_likelihood == pytest.approx(dense.log_likelihood, rel=1e-8, abs=1e-8)
@@ -227,7 +227,7 @@ def test_priors_chosen_from_gapped_data(criterion):
     result = tune(kwargs["L"], kwargs["Y"], noise_std=0.5, grid=5, criterion=criterion,
                   pm_snr_db=0.0, ep_snr_db=(-20.0, 80.0))  # fmt: skip
     assert not result.at_bound
-    rec = reconstruct(**{**kwargs, "theta0": result.theta0, "q": result.q}, method="dense")
+    rec = reconstruct(**{**kwargs, "theta0": result.theta0, "q": result.q}, path="dense")
     assert result.log_likelihood == pytest.approx(rec.log_likelihood, rel=1e-10)
     if criterion == "discrepancy":  # m T over the observed steps: 6 x 45
         residual = np.nansum((kwargs["Y"] - kwargs["L"] @ rec.x_filtered) ** 2) / 0.25

@@ -271,7 +271,7 @@ def _called_on_path(path):
                 q=0.1,
                 exponent=1.25,
                 smoother=smoother,
-                method=path,
+                path=path,
                 standardize=standardize,
                 n_orient=3,
             )

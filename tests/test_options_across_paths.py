@@ -103,10 +103,10 @@ def tolerance(model):
 
 @given(models())
 def test_spectral_and_filterpy_equal_dense(model):
-    reference = reconstruct(**model, method="dense")
+    reference = reconstruct(**model, path="dense")
     rtol = tolerance(model)
     for method in ("spectral", "filterpy"):
-        other = reconstruct(**model, method=method)
+        other = reconstruct(**model, path=method)
         for name in QUANTITIES:
             assert relative(getattr(other, name), getattr(reference, name)) <= rtol, (
                 method,
@@ -117,8 +117,8 @@ def test_spectral_and_filterpy_equal_dense(model):
 @given(models())
 def test_streamed_blocks_equal_the_whole_arrays(model):
     # the long-recording route: rows computed block by block (docs/model.md §9)
-    rec = reconstruct(**model, method="spectral")
-    again = reconstruct(**model, method="spectral")
+    rec = reconstruct(**model, path="spectral")
+    again = reconstruct(**model, path="spectral")
     for name in ("z", "weights"):
         whole = getattr(rec, name)
         blocks = np.vstack([block for _, block in again.blocks(name, rows=model["n_orient"])])
@@ -135,12 +135,12 @@ def test_missing_steps_agree_across_paths(model, data):
     gap = data.draw(st.integers(0, T - 1))
     model = dict(model, Y=model["Y"].copy())
     model["Y"][:, gap] = np.nan
-    reference = reconstruct(**model, method="dense")
+    reference = reconstruct(**model, path="dense")
     assert reference.missing[gap]
     assert np.isnan(reference.z[:, gap]).all()
     rtol = tolerance(model)
     for method in ("spectral", "filterpy"):
-        other = reconstruct(**model, method=method)
+        other = reconstruct(**model, path=method)
         for name in QUANTITIES:
             a, b = getattr(other, name), getattr(reference, name)
             np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
@@ -162,13 +162,13 @@ def test_held_recursions_equal_the_full_ones(monkeypatch, smoother, standardize)
     theta0, q = priors_from_snr(L, 1.0, pm_snr_db=0.0, ep_snr_db=20.0, n_steps=20)
     common = dict(
         noise_std=1.0, theta0=theta0, q=q, exponent=1.25, smoother=smoother,
-        standardize=standardize, n_orient=3, method="spectral",
+        standardize=standardize, n_orient=3, path="spectral",
     )  # fmt: skip
     held = reconstruct(L, Y, **common)
     with monkeypatch.context() as patch:
         patch.setattr(recursions, "STEADY_RTOL", -1.0)
         full = reconstruct(L, Y, **common)
-    dense_result = reconstruct(L, Y, **dict(common, method="dense"))
+    dense_result = reconstruct(L, Y, **dict(common, path="dense"))
     for name in QUANTITIES:
         assert relative(getattr(held, name), getattr(full, name)) < 1e-12, name
         assert relative(getattr(held, name), getattr(dense_result, name)) < 1e-10, name

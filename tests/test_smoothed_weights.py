@@ -13,13 +13,13 @@ from scipy import linalg
 from skf_ref import reconstruct
 from skf_ref.method._paths import dense
 
-METHODS = ("dense", "filterpy", "spectral")
+PATHS = ("dense", "filterpy", "spectral")
 # The batch computation solves one (m T) x (m T) system; both it and the recursions are
 # exact algebra on well-conditioned problems (condition numbers below 1e3 here).
 BATCH_RTOL = 1e-10
 
 
-@pytest.fixture(params=METHODS)
+@pytest.fixture(params=PATHS)
 def method(request):
     return request.param
 
@@ -94,7 +94,7 @@ def test_at_one_half_each_output_is_the_smoothed_estimate_over_its_own_sd(method
     theta0 = 0.8
     rec = reconstruct(
         L, Y, **noise_kwargs, theta0=theta0, q=q, exponent=0.5,
-        smoother="rts-smoothed-weights", method=method,
+        smoother="rts-smoothed-weights", path=method,
     )  # fmt: skip
     x_s, covariance, _ = batch_smoother(L, Y, R, np.eye(n), q * np.eye(n), theta0 * np.eye(n))
     sd = np.sqrt(np.diagonal(covariance, axis1=1, axis2=2))
@@ -124,7 +124,7 @@ def test_general_model_is_the_whitened_estimate_over_its_own_covariance(exponent
     for method in ("dense", "filterpy"):
         rec = reconstruct(
             L, Y, noise_cov=R, theta0=P0, q=Q, transition=A, exponent=exponent,
-            smoother="rts-smoothed-weights", method=method,
+            smoother="rts-smoothed-weights", path=method,
         )  # fmt: skip
         assert relative(rec.z.T, np.array(expected)) < BATCH_RTOL, method
 
@@ -135,7 +135,7 @@ def test_one_step_is_the_filter(method):
     for standardize, n_orient in (("column", None), ("position", 3)):
         common = dict(
             noise_std=0.7, theta0=0.8, q=0.1, exponent=1.25, standardize=standardize,
-            n_orient=n_orient, method=method,
+            n_orient=n_orient, path=method,
         )  # fmt: skip
         smoothed = reconstruct(L, Y, smoother="rts-smoothed-weights", **common)
         filtered = reconstruct(L, Y, **common)
@@ -145,7 +145,7 @@ def test_one_step_is_the_filter(method):
 def test_means_and_weights_are_those_of_the_state_smoother(method):
     # x is the textbook smoothed state (as "rts-state"); weights and z_filtered the filter's
     L, Y = problem(6)
-    common = dict(noise_std=0.7, theta0=0.8, q=0.3, exponent=1.25, method=method)
+    common = dict(noise_std=0.7, theta0=0.8, q=0.3, exponent=1.25, path=method)
     ours = reconstruct(L, Y, smoother="rts-smoothed-weights", **common)
     state = reconstruct(L, Y, smoother="rts-state", **common)
     for name in ("x", "x_filtered", "z_filtered", "weights"):
@@ -165,7 +165,7 @@ def test_position_blocks_are_the_blocks_of_the_estimates_covariance(method):
     theta0, q = 0.8, 0.3
     rec = reconstruct(
         L, Y, noise_std=0.7, theta0=theta0, q=q, exponent=0.5,
-        smoother="rts-smoothed-weights", standardize="position", n_orient=3, method=method,
+        smoother="rts-smoothed-weights", standardize="position", n_orient=3, path=method,
     )  # fmt: skip
     n = 3 * n_positions
     x_s, covariance, _ = batch_smoother(
@@ -188,7 +188,7 @@ def test_a_long_random_walk_judges_late_activity_against_a_wider_prior():
     Y = np.outer(L[:, 2], np.ones(T)) + 0.05 * rng.standard_normal((8, T))
     rec = reconstruct(
         L, Y, noise_std=0.05, theta0=1.0, q=0.01, exponent=0.5,
-        smoother="rts-smoothed-weights", method="spectral",
+        smoother="rts-smoothed-weights", path="spectral",
     )  # fmt: skip
     early, late = np.abs(rec.z[2, 50]), np.abs(rec.z[2, 350])
     sigma = 1.0 + 0.01 * np.array([51, 351])
@@ -235,7 +235,7 @@ def test_weights_held_inside_a_long_ar1_recording_equal_every_steps_own(standard
     settings = dict(noise_std=1.0, theta0=1.0, q=0.19, transition=0.9)
     kwargs = dict(standardize=standardize, n_orient=3)
     dense_z = reconstruct(
-        L, Y, **settings, exponent=0.5, smoother="rts-smoothed-weights", method="dense", **kwargs
+        L, Y, **settings, exponent=0.5, smoother="rts-smoothed-weights", path="dense", **kwargs
     ).z
     model = SpectralModel(StateSpaceModel.create(L, **settings), T)
     held = model.apply(Y, 0.5, "rts-smoothed-weights", standardize=standardize, n_orient=3)

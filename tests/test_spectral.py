@@ -102,8 +102,8 @@ def models(draw):
 
 @given(models())
 def test_spectral_equals_dense(model):
-    reference = reconstruct(**model, method="dense")
-    spectral = reconstruct(**model, method="spectral")
+    reference = reconstruct(**model, path="dense")
+    spectral = reconstruct(**model, path="spectral")
     rtol = tolerance(model)
     for name in QUANTITIES:
         assert relative(getattr(spectral, name), getattr(reference, name)) <= rtol, name
@@ -124,11 +124,11 @@ def test_ill_conditioned_single_source_against_its_closed_form():
     p = theta0 + q
     x = p * (L[:, 0] @ Y[:, 0]) / (p * (L[:, 0] @ L[:, 0]) + sigma**2)
     assert condition_number(model) > 1e6
-    spectral = reconstruct(**model, method="spectral")
+    spectral = reconstruct(**model, path="spectral")
     assert relative(spectral.x, x) < 1e-14
     assert relative(spectral.z, x / np.sqrt(p)) < 1e-14
     for method in ("dense", "filterpy"):  # both solve with S: accurate to ~eps cond(S) only
-        assert relative(reconstruct(**model, method=method).x, x) <= tolerance(model), method
+        assert relative(reconstruct(**model, path=method).x, x) <= tolerance(model), method
 
 
 def test_auto_takes_spectral_when_the_model_qualifies():
@@ -152,8 +152,8 @@ def test_forcing_spectral_on_a_model_that_does_not_qualify(name, value):
     rng = np.random.default_rng(1)
     L, Y = rng.standard_normal((5, 8)), rng.standard_normal((5, 4))
     kwargs = dict(noise_std=1.0, theta0=1.0, q=0.1) | {name: value}
-    with pytest.raises(ValueError, match=f"method='spectral'.*{name} is not a scalar multiple"):
-        reconstruct(L, Y, **kwargs, method="spectral")
+    with pytest.raises(ValueError, match=f"path='spectral'.*{name} is not a scalar multiple"):
+        reconstruct(L, Y, **kwargs, path="spectral")
 
 
 def test_prepared_model_applied_many_times_equals_fresh_runs():
@@ -299,8 +299,8 @@ def fixed_problem(seed=5, m=5, n=9, T=30, transition=1.0):
 
 
 def _agree_with_dense(problem, **settings):
-    spectral = reconstruct(**problem, **settings, method="spectral")
-    reference = reconstruct(**problem, **settings, method="dense")
+    spectral = reconstruct(**problem, **settings, path="spectral")
+    reference = reconstruct(**problem, **settings, path="dense")
     for name in QUANTITIES:
         assert relative(getattr(spectral, name), getattr(reference, name)) <= FIXED_RTOL, name
     assert spectral.log_likelihood == pytest.approx(reference.log_likelihood, rel=FIXED_RTOL)
@@ -442,8 +442,8 @@ def test_a_weak_direction_above_the_threshold_is_computed_as_the_dense_path_does
     rng = np.random.default_rng(1)
     Y = L @ rng.standard_normal((40, 8)) + 1e-3 * rng.standard_normal((6, 8))
     problem = dict(L=L, Y=Y, noise_std=1e-3, theta0=1.0, q=0.1)
-    spectral = reconstruct(**problem, method="spectral")
-    reference = reconstruct(**problem, method="dense")
+    spectral = reconstruct(**problem, path="spectral")
+    reference = reconstruct(**problem, path="dense")
     assert spectral.lazy_outputs.V.shape == (40, 4)  # the basis of rank 4
     for name in ("z", "weights"):
         np.testing.assert_allclose(getattr(spectral, name)[0], getattr(reference, name)[0],

@@ -13,7 +13,7 @@ from scipy import linalg
 
 from skf_ref import InputError, reconstruct
 
-METHODS = ("dense", "filterpy", "spectral")
+PATHS = ("dense", "filterpy", "spectral")
 SMOOTHERS = (None, "rts-standardized", "rts-state", "rts-smoothed-weights")
 # Closed forms against the paths, on problems whose blocks and covariances have condition
 # numbers below 1e3: a few hundred eps times those (the dense path takes eigh of
@@ -21,7 +21,7 @@ SMOOTHERS = (None, "rts-standardized", "rts-state", "rts-smoothed-weights")
 CLOSED_FORM_RTOL = 1e-10
 
 
-@pytest.fixture(params=METHODS)
+@pytest.fixture(params=PATHS)
 def method(request):
     return request.param
 
@@ -79,7 +79,7 @@ def test_first_step_is_free_orientation_sloreta(method, noise, split):
         exponent=0.5,
         standardize="position",
         n_orient=3,
-        method=method,
+        path=method,
     )
     expected = pascual_marqui(L, y, p, R)
     assert relative(rec.amplitude(3)[:, 0], expected) < CLOSED_FORM_RTOL
@@ -125,7 +125,7 @@ def test_fixed_orientation_is_mne_sloreta(mne_setup):
     for standardize in ("column", "position"):  # the spectral path (the others equal it)
         rec = reconstruct(
             L, Y, noise_std=sigma, theta0=theta0, q=0.0, exponent=0.5,
-            standardize=standardize, n_orient=1, method="spectral",
+            standardize=standardize, n_orient=1, path="spectral",
         )  # fmt: skip
         assert relative(rec.z[:, 0], sloreta) < CLOSED_FORM_RTOL, standardize
 
@@ -140,7 +140,7 @@ def test_noise_free_dipole_of_any_orientation_is_localized_exactly(position, ori
     L = free_lead_field(rng, 16, 12)
     eta = np.asarray(orientation) / np.linalg.norm(orientation)
     y = L[:, 3 * position : 3 * position + 3] @ eta
-    for method in METHODS:
+    for method in PATHS:
         rec = reconstruct(
             L,
             y[:, None],
@@ -149,7 +149,7 @@ def test_noise_free_dipole_of_any_orientation_is_localized_exactly(position, ori
             q=0.0,
             standardize="position",
             n_orient=3,
-            method=method,
+            path=method,
         )
         amplitude = rec.amplitude(3)[:, 0]
         assert np.argmax(amplitude) == position, method
@@ -166,7 +166,7 @@ def test_the_column_form_moves_an_oblique_dipole():
         for _ in range(20):
             eta = rng.standard_normal(3)
             y = L[:, 3 * position : 3 * position + 3] @ (eta / np.linalg.norm(eta))
-            common = dict(noise_std=1e-3, theta0=1.0, q=0.0, n_orient=3, method="dense")
+            common = dict(noise_std=1e-3, theta0=1.0, q=0.0, n_orient=3, path="dense")
             column = reconstruct(L, y[:, None], standardize="column", **common)
             position_form = reconstruct(L, y[:, None], standardize="position", **common)
             assert np.argmax(position_form.amplitude(3)[:, 0]) == position
@@ -198,7 +198,7 @@ def test_rotating_every_position_rotates_z_and_keeps_the_amplitude(method, smoot
         exponent=exponent,
         smoother=smoother,
         n_orient=3,
-        method=method,
+        path=method,
     )
     for standardize in ("position", "column"):
         rec = reconstruct(L, Y, standardize=standardize, **common)
@@ -218,8 +218,8 @@ def test_one_orientation_per_position_is_the_column_form(method, smoother):
     L = free_lead_field(rng, 10, 4)
     Y = rng.standard_normal((10, 5))
     common = dict(noise_std=0.5, theta0=0.7, q=0.2, exponent=1.25, smoother=smoother)
-    column = reconstruct(L, Y, **common, method=method)
-    position = reconstruct(L, Y, standardize="position", n_orient=1, **common, method=method)
+    column = reconstruct(L, Y, **common, path=method)
+    position = reconstruct(L, Y, standardize="position", n_orient=1, **common, path=method)
     for name in ("z", "x", "z_filtered", "weights"):
         assert relative(getattr(position, name), getattr(column, name)) < 1e-13, name
 
@@ -251,7 +251,7 @@ def test_weights_are_the_diagonal_of_the_block_powers(method, exponent):
         exponent=exponent,
         standardize="position",
         n_orient=3,
-        method=method,
+        path=method,
     )
     weights, z = first_step_by_blocks(L, y, sigma, p, exponent)
     assert relative(rec.weights[:, 0], weights) < 1e-12
@@ -273,7 +273,7 @@ def test_weights_and_z_of_many_positions_in_either_order(first):
         q=0.0,
         standardize="position",
         n_orient=3,
-        method="spectral",
+        path="spectral",
     )
     weights, z = first_step_by_blocks(L, y, 0.5, 0.8, 0.5)
     expected = dict(weights=weights, z=z)
@@ -314,7 +314,7 @@ def test_bad_standardization_settings_are_refused(kwargs, match):
         reconstruct(L, rng.standard_normal((6, 2)), noise_std=1.0, theta0=1.0, q=0.1, **kwargs)
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", PATHS)
 def test_a_position_not_seen_in_every_orientation_is_refused(method):
     # three orientations, two independent channels (average reference of three)
     rng = np.random.default_rng(12)
@@ -323,7 +323,7 @@ def test_a_position_not_seen_in_every_orientation_is_refused(method):
     with pytest.raises(InputError, match=r"position 0 \(columns 0-2 of L\) has a singular"):
         reconstruct(
             L, rng.standard_normal((3, 2)), noise_std=1.0, theta0=1.0, q=0.1,
-            standardize="position", n_orient=3, method=method,
+            standardize="position", n_orient=3, path=method,
         )  # fmt: skip
     # the column form is defined there
     reconstruct(L, rng.standard_normal((3, 2)), noise_std=1.0, theta0=1.0, q=0.1, n_orient=3)
@@ -339,8 +339,8 @@ def test_components_held_one_at_a_time_agree_with_the_dense_path(exponent):
     Y = rng.standard_normal((8, 300))
     settings = dict(noise_std=1.0, theta0=1e-2, q=1e-3, exponent=exponent)
     settings.update(standardize="position", n_orient=3)
-    spectral = reconstruct(L, Y, **settings, method="spectral")
-    dense = reconstruct(L, Y, **settings, method="dense")
+    spectral = reconstruct(L, Y, **settings, path="spectral")
+    dense = reconstruct(L, Y, **settings, path="dense")
     for name in ("z", "weights"):
         assert relative(getattr(spectral, name), getattr(dense, name)) < 1e-10, name
 

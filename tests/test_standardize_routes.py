@@ -36,7 +36,7 @@ def test_apply_skf_takes_the_orientations_from_the_forward(problem, smoother):
     data = operator.select(evoked.info, evoked.data, "evoked") * np.sqrt(evoked.nave)
     direct = reconstruct(
         operator.leadfield, operator.whitener @ data, noise_std=1.0, theta0=rec.theta0, q=rec.q,
-        n_orient=3, method="spectral", **settings,
+        n_orient=3, path="spectral", **settings,
     )  # fmt: skip
     assert relative(rec.z, direct.z) < 1e-10
     vector = apply_skf(evoked, setup["forward"], cov, pick_ori="vector", **walk, **settings)

@@ -53,7 +53,7 @@ def full_recursion(monkeypatch):
     def run(**kwargs):
         with monkeypatch.context() as patch:
             patch.setattr(recursions, "STEADY_RTOL", -1.0)
-            return reconstruct(**kwargs, method="spectral")
+            return reconstruct(**kwargs, path="spectral")
 
     return run
 
@@ -65,7 +65,7 @@ def test_held_recursions_equal_the_full_ones(full_recursion, transition, exponen
     problem = settling_problem(noise_cov=noise_cov)
     for smoother in SMOOTHERS:
         kwargs = dict(problem, transition=transition, exponent=exponent, smoother=smoother)
-        held = reconstruct(**kwargs, method="spectral")
+        held = reconstruct(**kwargs, path="spectral")
         full = full_recursion(**kwargs)
         assert 0 < held.lazy_outputs.steady < 60 and full.lazy_outputs.steady == 150
         for name in QUANTITIES:
@@ -78,8 +78,8 @@ def test_held_recursions_equal_the_full_ones(full_recursion, transition, exponen
 def test_a_settled_problem_equals_the_dense_path(smoother, exponent):
     problem = settling_problem(seed=1, m=5, n=8, T=120)
     kwargs = dict(problem, exponent=exponent, smoother=smoother)
-    spectral = reconstruct(**kwargs, method="spectral")
-    dense = reconstruct(**kwargs, method="dense")
+    spectral = reconstruct(**kwargs, path="spectral")
+    dense = reconstruct(**kwargs, path="dense")
     assert spectral.lazy_outputs.steady < 60  # most of the recording is held
     for name in QUANTITIES:
         assert relative(getattr(spectral, name), getattr(dense, name)) <= DENSE_RTOL, name
@@ -117,10 +117,10 @@ def long_models(draw):
 
 @given(long_models())
 def test_held_equals_full_on_random_long_models(model):
-    held = reconstruct(**model, method="spectral")
+    held = reconstruct(**model, path="spectral")
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(recursions, "STEADY_RTOL", -1.0)
-        full = reconstruct(**model, method="spectral")
+        full = reconstruct(**model, path="spectral")
     for name in QUANTITIES:
         assert relative(getattr(held, name), getattr(full, name)) <= HELD_RTOL, name
     assert held.log_likelihood == pytest.approx(full.log_likelihood, rel=HELD_RTOL)

@@ -26,7 +26,7 @@ def problem(n=300, m=8, T=50, seed=0):
 def run(smoother, method="spectral", **kwargs):
     L, Y = problem(**kwargs)
     return reconstruct(
-        L, Y, noise_std=1.0, theta0=1.0, q=0.1, exponent=1.25, smoother=smoother, method=method
+        L, Y, noise_std=1.0, theta0=1.0, q=0.1, exponent=1.25, smoother=smoother, path=method
     )
 
 

@@ -45,7 +45,7 @@ def test_likelihood_without_outputs_equals_every_path(transition):
     for (theta0, q), value in zip(priors, values, strict=True):
         for method in ("spectral", "dense"):
             rec = reconstruct(
-                L, Y, noise_std=0.5, theta0=theta0, q=q, transition=transition, method=method
+                L, Y, noise_std=0.5, theta0=theta0, q=q, transition=transition, path=method
             )
             assert value == pytest.approx(rec.log_likelihood, rel=LIKELIHOOD_RTOL), method
 
@@ -62,7 +62,7 @@ def test_residual_energy_equals_the_dense_paths_residual(transition):
     assert values.shape == (3,)
     for (theta0, q), value in zip(priors, values, strict=True):
         rec = reconstruct(
-            L, Y, noise_cov=R, theta0=theta0, q=q, transition=transition, method="dense"
+            L, Y, noise_cov=R, theta0=theta0, q=q, transition=transition, path="dense"
         )
         direct = whitened_residual(L, Y, R, rec.x_filtered)
         assert value == pytest.approx(direct, rel=RESIDUAL_RTOL)
@@ -110,7 +110,7 @@ def test_the_discrepancy_puts_the_dense_paths_residual_at_its_expected_value(pm_
         warnings.simplefilter("error")  # an interior solution: no bound warning
         result = tune(L, Y, pm_snr_db=pm_snr_db, criterion="discrepancy", **noise)
     assert result.criterion == "discrepancy" and result.at_bound == {}
-    rec = reconstruct(L, Y, theta0=result.theta0, q=result.q, method="dense", **noise)
+    rec = reconstruct(L, Y, theta0=result.theta0, q=result.q, path="dense", **noise)
     R = noise.get("noise_cov", 0.25 * np.eye(m))
     residual = whitened_residual(L, Y, R, rec.x_filtered)
     assert residual == pytest.approx(m * T, rel=DISCREPANCY_RTOL)

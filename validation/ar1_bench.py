@@ -37,7 +37,7 @@ def _runner(problem, theta0, q, transition):
         rec = skf_ref.reconstruct(
             L, problem["Y"], noise_std=problem["noise_std"], theta0=theta0, q=q,
             transition=transition, exponent=1.25, smoother="rts-standardized",
-            method="spectral",
+            path="spectral",
         )  # fmt: skip
         return rec.z  # the spectral path computes its outputs on access
 

@@ -90,7 +90,7 @@ def runner(problem, settings):
             noise_std=problem["noise_std"],
             theta0=problem["theta0"],
             q=problem["q"],
-            method="spectral",
+            path="spectral",
             **settings,
         )
         return rec.z  # computed on access

@@ -8,11 +8,12 @@ Every check names the parameter, says what was expected and shows what was recei
 reshaped or cast silently.
 """
 
+import functools
 import numbers
 import os
-from collections.abc import Collection, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, ParamSpec, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -37,7 +38,18 @@ __all__ = [
     "check_transition",
     "check_vector",
     "describe",
+    "path_renamed",
 ]
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+#: What ``method=`` given to an SKF function (its computational path until 0.6.0) hears.
+PATH_RENAMED = (
+    "method= was renamed path= in skf_ref 0.6.0: it chooses the computational path ('auto', "
+    "'dense', 'filterpy', 'spectral'), not an inverse method as MNE's method= does (for "
+    "MNE, dSPM, sLORETA or eLORETA beside the SKF, see skf_ref.study.apply_minimum_norm)"
+)
 
 
 class InputError(ValueError):
@@ -46,6 +58,29 @@ class InputError(ValueError):
 
 class InputTypeError(InputError, TypeError):
     """A user input is the wrong kind of object; a ``TypeError`` (and an :class:`InputError`)."""
+
+
+def path_renamed(func: Callable[_P, _R]) -> Callable[_P, _R]:
+    """``func``, refusing ``method=`` with :data:`PATH_RENAMED` (for one release, 0.6.x).
+
+    Examples
+    --------
+    >>> @path_renamed
+    ... def run(path="auto"):
+    ...     return path
+    >>> run(method="dense")
+    Traceback (most recent call last):
+    ...
+    skf_ref._utils.checks.InputTypeError: method= was renamed path= in skf_ref 0.6.0: ...
+    """
+
+    @functools.wraps(func)
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        if "method" in kwargs:
+            raise InputTypeError(PATH_RENAMED)
+        return func(*args, **kwargs)
+
+    return wrapper
 
 
 def describe(value: object) -> str:

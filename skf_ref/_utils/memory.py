@@ -92,14 +92,14 @@ def spectral_memory(n_sources: int, n_channels: int, n_times: int) -> int:
 
 
 def covariance_memory(
-    n_sources: int, n_times: int, method: str = "dense", smoother: str | None = None
+    n_sources: int, n_times: int, path: str = "dense", smoother: str | None = None
 ) -> int:
     """Bytes the covariance-storing paths need for their (n, n) matrices.
 
     Parameters
     ----------
     n_sources, n_times : int
-    method : {"dense", "filterpy"}
+    path : {"dense", "filterpy"}
     smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
 
     Returns
@@ -116,14 +116,14 @@ def covariance_memory(
     >>> covariance_memory(1000, 41) / 2**30  # GiB
     0.976...
     """
-    per_step = 3 if method == "dense" else 2 if smoother is None else 5
+    per_step = 3 if path == "dense" else 2 if smoother is None else 5
     if smoother == "rts-smoothed-weights":
-        per_step += 2 if method == "dense" else 1
+        per_step += 2 if path == "dense" else 1
     return 8 * n_sources**2 * (per_step * n_times + 8)
 
 
 def check_reconstruction(
-    method: str,
+    path: str,
     smoother: str | None,
     n_sources: int,
     n_channels: int,
@@ -134,7 +134,7 @@ def check_reconstruction(
 
     Parameters
     ----------
-    method : {"spectral", "dense", "filterpy"}
+    path : {"spectral", "dense", "filterpy"}
     smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
     n_sources, n_channels, n_times : int
         The lead field's columns, its rows (or the whitened data's rank) and the steps.
@@ -151,25 +151,25 @@ def check_reconstruction(
     >>> check_reconstruction("dense", None, 5000, 64, 100, memory_limit=2**30)
     Traceback (most recent call last):
     ...
-    MemoryError: method='dense' stores 100 covariances of 5000^2 entries: about 57.4 GiB, ...
+    MemoryError: path='dense' stores 100 covariances of 5000^2 entries: about 57.4 GiB, ...
     """
     allowed = memory_budget(memory_limit)
-    if method == "spectral":
+    if path == "spectral":
         needed = spectral_memory(n_sources, n_channels, n_times)
         if needed > allowed:
             raise MemoryError(
-                f"method='spectral' needs about {needed / 2**30:.3g} GiB for its model (the "
+                f"path='spectral' needs about {needed / 2**30:.3g} GiB for its model (the "
                 f"SVD of a ({n_channels}, {n_sources}) lead field and {n_times} steps of its "
                 f"recursions), over the memory budget of {allowed / 2**30:.3g} GiB "
                 "(memory_limit; default half the available memory); reconstruct shorter "
                 "segments of the data"
             )
         return
-    needed = covariance_memory(n_sources, n_times, method, smoother)
+    needed = covariance_memory(n_sources, n_times, path, smoother)
     if needed > allowed:
         raise MemoryError(
-            f"method={method!r} stores {n_times} covariances of {n_sources}^2 entries: about "
+            f"path={path!r} stores {n_times} covariances of {n_sources}^2 entries: about "
             f"{needed / 2**30:.3g} GiB, over the memory budget of {allowed / 2**30:.3g} GiB "
             "(memory_limit; default half the available memory). For random-walk models with "
-            "isotropic priors use method='spectral', which never forms an n_sources^2 matrix."
+            "isotropic priors use path='spectral', which never forms an n_sources^2 matrix."
         )

@@ -12,6 +12,17 @@ from .._utils.checks import InputError
 from ..method import RECOMMENDED_SETTING
 from ._args import add_skf_options, positive, report_tuning
 
+
+class _Renamed(argparse.Action):
+    """``--method``, the computational path's flag until 0.6.0: an error naming ``--path``."""
+
+    def __call__(self, parser: Any, namespace: Any, values: Any, option: Any = None) -> None:
+        raise InputError(
+            "--method was renamed --path in skf-ref 0.6.0: it chooses the computational path "
+            "(auto, spectral, dense, filterpy), not an inverse method as MNE's method= does"
+        )
+
+
 if TYPE_CHECKING:
     from ..method import Reconstruction
 
@@ -118,11 +129,12 @@ def add_parser(subparsers: Any) -> None:
         "positions when it has them); the MNE route takes it from the forward",
     )
     model.add_argument(
-        "--method",
+        "--path",
         default="auto",
         choices=("auto", "spectral", "dense", "filterpy"),
-        help="computational path",
+        help="computational path (--method before 0.6.0)",
     )
+    model.add_argument("--method", action=_Renamed, help=argparse.SUPPRESS)
     model.add_argument(
         "--pick-ori",
         default="none",
@@ -322,7 +334,7 @@ def _settings(args, route, extra):
 
     keys = (
         *("pm_snr_db", "ep_snr_db", "time_constant_ms", "sfreq"),
-        *("exponent", "smoother", "standardize", "n_orient", "method", "pick_ori", "meg", "eeg"),
+        *("exponent", "smoother", "standardize", "n_orient", "path", "pick_ori", "meg", "eeg"),
     )
     files = ("forward", "evoked", "condition", "leadfield", "data", "key", "noise_cov")
     return {
@@ -435,7 +447,7 @@ def _mne_route(args):
         smoother=args.smoother,
         standardize=args.standardize,
         pick_ori=None if args.pick_ori == "none" else args.pick_ori,
-        method=args.method,
+        path=args.path,
         return_reconstruction=True,
         verbose=False,
     )
@@ -544,7 +556,7 @@ def _array_route(args):
         transition=transition,
         exponent=args.exponent,
         smoother=None if args.smoother == "none" else args.smoother,
-        method=args.method,
+        path=args.path,
         standardize=args.standardize,
         n_orient=n_orient,
     )

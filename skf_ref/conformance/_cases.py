@@ -122,12 +122,12 @@ class Case:
         """The shape ``(n_sources, n_times)`` of every array output."""
         return (self.inputs["L"].shape[1], self.inputs["Y"].shape[1])
 
-    def reconstruct(self, method: str = "dense", **changes: Any) -> Reconstruction:
+    def reconstruct(self, path: str = "dense", **changes: Any) -> Reconstruction:
         """Run :func:`skf_ref.reconstruct` on the inputs with one of its paths.
 
         Parameters
         ----------
-        method : {"dense", "filterpy", "spectral", "auto"}
+        path : {"dense", "filterpy", "spectral", "auto"}
         **changes
             Inputs to replace (``smoother="rts-state"``, say).
 
@@ -148,7 +148,7 @@ class Case:
             transition=p["transition"],
             exponent=p["exponent"],
             smoother=p["smoother"],
-            method=method,
+            path=path,
             standardize=p["standardize"],
             n_orient=int(p["n_orient"]) if p["standardize"] == "position" else None,
         )

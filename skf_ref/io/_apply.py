@@ -17,7 +17,14 @@ from typing import Any
 
 import numpy as np
 
-from .._utils.checks import InputError, InputTypeError, check_choice, check_instance, describe
+from .._utils.checks import (
+    InputError,
+    InputTypeError,
+    check_choice,
+    check_instance,
+    describe,
+    path_renamed,
+)
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
 from .._utils.parallel import HERE, check_n_jobs, plan_jobs
@@ -71,6 +78,7 @@ def _operator(evoked, forward, noise_cov, noise_std, snrs, types, verbose, rank=
     )
 
 
+@path_renamed
 def apply_skf(
     evoked: Any,
     forward: Any,
@@ -83,7 +91,7 @@ def apply_skf(
     exponent: float = 0.5,
     smoother: str | None = "rts-smoothed-weights",
     pick_ori: str | None = None,
-    method: str = "auto",
+    path: str = "auto",
     standardize: str | None = None,
     meg: bool | str | None = None,
     eeg: bool | None = None,
@@ -169,7 +177,7 @@ def apply_skf(
     pick_ori : {None, "vector"}
         ``None``: per-position amplitude (free) or signed values (fixed); ``"vector"``: the
         three components of a free-orientation forward.
-    method : {"auto", "filterpy", "dense", "spectral"}
+    path : {"auto", "filterpy", "dense", "spectral"}
     standardize : {"column", "position"}, optional
         ``"position"``: each source position's orientations as a whole, as sLORETA
         (docs/model.md §2), the columns per position from the forward (3 free, 1 fixed);
@@ -226,7 +234,7 @@ def apply_skf(
                 nave=evoked.nave,
                 exponent=exponent,
                 smoother=smoother,
-                method=method,
+                path=path,
                 standardize=standardize,
                 time_constant_ms=time_constant_ms if override else None,
                 sfreq=evoked.info["sfreq"],
@@ -235,6 +243,7 @@ def apply_skf(
     return (stc, rec) if return_reconstruction else stc
 
 
+@path_renamed
 def apply_skf_epochs(
     epochs: Any,
     operator: SKFOperator,
@@ -242,7 +251,7 @@ def apply_skf_epochs(
     exponent: float = 0.5,
     smoother: str | None = "rts-smoothed-weights",
     pick_ori: str | None = None,
-    method: str = "auto",
+    path: str = "auto",
     standardize: str | None = None,
     nave: float = 1,
     time_constant_ms: Any = None,
@@ -266,7 +275,7 @@ def apply_skf_epochs(
         As :func:`apply_skf`.
     pick_ori : {None, "vector"}
         As :func:`apply_skf`.
-    method : {"auto", "filterpy", "dense", "spectral"}
+    path : {"auto", "filterpy", "dense", "spectral"}
         As :func:`apply_skf`.
     standardize : {"column", "position"}
         As :func:`apply_skf`.
@@ -311,7 +320,7 @@ def apply_skf_epochs(
     if time_constant_ms is not None:  # refused now, not at the first epoch
         time_constant_ms = check_time_constant(time_constant_ms)
     # checked once here; each epoch is run on the checked settings
-    checked = operator._check_settings(exponent, smoother, method, standardize)
+    checked = operator._check_settings(exponent, smoother, path, standardize)
     settings: dict[str, Any] = dict(settings=checked, nave=nave)
     settings |= dict(time_constant_ms=time_constant_ms, sfreq=epochs.info["sfreq"])
     tmin, tstep = float(epochs.times[0]), 1.0 / epochs.info["sfreq"]

@@ -26,6 +26,7 @@ from .._utils.checks import (
     check_db,
     check_leadfield,
     check_real,
+    path_renamed,
 )
 from .._utils.log import logger
 from .._utils.precision import zero_tolerance
@@ -396,6 +397,7 @@ class SKFOperator:
             check_average_referenced(info, data, name)
         return picked
 
+    @path_renamed
     def reconstruct(
         self,
         data: ArrayLike,
@@ -403,7 +405,7 @@ class SKFOperator:
         nave: float = 1,
         exponent: float = 0.5,
         smoother: str | None = "rts-smoothed-weights",
-        method: str = "auto",
+        path: str = "auto",
         memory_limit: float | None = None,
         standardize: str | None = None,
         time_constant_ms: float | str | tuple[float, float] | None = None,
@@ -421,7 +423,7 @@ class SKFOperator:
             recordings): the data are whitened with the noise covariance divided by it.
         exponent : float
         smoother : {"rts-smoothed-weights", None, "rts-standardized", "rts-state"}
-        method : {"auto", "spectral", "dense", "filterpy"}
+        path : {"auto", "spectral", "dense", "filterpy"}
             ``"auto"`` and ``"spectral"`` reuse the operator's SVD and recursions.
         memory_limit : float, optional
             Bytes the reconstruction may use (default half the memory available).
@@ -448,7 +450,7 @@ class SKFOperator:
             ``z``, the weights, the log-likelihood and the priors do not depend on ``nave``;
             ``x`` is the state of the data scaled by ``sqrt(nave)`` (below).
         """
-        settings = self._check_settings(exponent, smoother, method, standardize)
+        settings = self._check_settings(exponent, smoother, path, standardize)
         return self._reconstruct(
             data,
             settings,
@@ -462,14 +464,14 @@ class SKFOperator:
         self,
         exponent: float = 0.5,
         smoother: str | None = "rts-smoothed-weights",
-        method: str = "auto",
+        path: str = "auto",
         standardize: str | None = None,
     ) -> Settings:
         """The settings of :meth:`reconstruct` checked for this operator, once per call.
 
         Parameters
         ----------
-        exponent, smoother, method, standardize
+        exponent, smoother, path, standardize
             As :meth:`reconstruct`.
 
         Returns
@@ -478,7 +480,7 @@ class SKFOperator:
         """
         standardize = self.default_standardize if standardize is None else standardize
         return check_settings(
-            exponent, smoother, method, standardize, self.n_components, self.n_sources
+            exponent, smoother, path, standardize, self.n_components, self.n_sources
         )
 
     def _reconstruct(

@@ -21,6 +21,7 @@ from .._utils.checks import (
     check_int,
     check_memory_limit,
     describe,
+    path_renamed,
 )
 from .._utils.extras import optional
 from .._utils.log import logger, verbosity
@@ -33,6 +34,7 @@ from ._operator import SKFOperator
 __all__ = ["apply_skf_raw"]
 
 
+@path_renamed
 def apply_skf_raw(
     raw: Any,
     operator: SKFOperator,
@@ -43,7 +45,7 @@ def apply_skf_raw(
     smoother: str | None = "rts-smoothed-weights",
     pick_ori: str | None = None,
     standardize: str | None = None,
-    method: str = "auto",
+    path: str = "auto",
     out: str | os.PathLike[str] | None = None,
     overwrite: bool = False,
     memory_limit: float | None = None,
@@ -81,7 +83,7 @@ def apply_skf_raw(
         As :func:`apply_skf`.
     standardize : {"column", "position"}
         As :func:`apply_skf`.
-    method : {"auto", "spectral", "dense", "filterpy"}
+    path : {"auto", "spectral", "dense", "filterpy"}
         As :func:`apply_skf`.
     out : path-like, optional
         A zarr store to create (e.g. ``"run1-skf.zarr"``): its array ``"data"`` holds what
@@ -173,7 +175,7 @@ def apply_skf_raw(
                 data,
                 exponent=exponent,
                 smoother=smoother,
-                method=method,
+                path=path,
                 memory_limit=memory_limit,
                 standardize=standardize,
                 time_constant_ms=time_constant_ms,

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._utils import memory
-from .._utils.checks import InputError, InputTypeError, check_real
+from .._utils.checks import InputError, InputTypeError, check_real, path_renamed
 from .._utils.log import caller_stacklevel
 from ._model import StateSpaceModel, missing_steps
 from ._paths import dense, spectral
@@ -53,18 +53,18 @@ def slow_path_seconds(n_sources: int, n_channels: int, n_times: int) -> float:
     return operations / _FLOPS_PER_SECOND
 
 
-def _warn_if_slow(method: str, model: StateSpaceModel, n_times: int, isotropic: bool) -> None:
+def _warn_if_slow(path: str, model: StateSpaceModel, n_times: int, isotropic: bool) -> None:
     """Warn, before any work, of a covariance-storing run estimated to take long."""
     seconds = slow_path_seconds(model.n_sources, model.n_channels, n_times)
     if seconds <= _WARN_SECONDS:
         return
     instead = (
-        "; method='spectral' computes this isotropic model exactly in a fraction of that"
+        "; path='spectral' computes this isotropic model exactly in a fraction of that"
         if isotropic
         else ""
     )
     warnings.warn(
-        f"method={method!r} on {model.n_sources} sources x {n_times} steps is estimated to "
+        f"path={path!r} on {model.n_sources} sources x {n_times} steps is estimated to "
         f"take {seconds:.3g} s (about 20 n^3 operations a step, at {_FLOPS_PER_SECOND:.0e} "
         f"a second){instead}",
         UserWarning,
@@ -80,6 +80,7 @@ _NO_PRIORS = (
 )
 
 
+@path_renamed
 def reconstruct(
     L: ArrayLike,
     Y: ArrayLike,
@@ -90,7 +91,7 @@ def reconstruct(
     q: float | ArrayLike | None = None,
     exponent: float = 0.5,
     smoother: str | None = None,
-    method: str = "auto",
+    path: str = "auto",
     transition: float | ArrayLike = 1.0,
     memory_limit: float | None = None,
     standardize: str = "column",
@@ -156,7 +157,7 @@ def reconstruct(
         ``"rts-smoothed-weights"`` the same smoothed state standardized by its own
         variance, the sLORETA principle applied to the smoothed estimate (defined at
         missing steps too). docs/model.md §3.
-    method : {"auto", "filterpy", "dense", "spectral"}
+    path : {"auto", "filterpy", "dense", "spectral"}
         Computational path; all give the same result to rounding. ``"spectral"`` (exact,
         fast, memory O(n r + n T)) needs scalar (isotropic) ``transition``, ``q`` and
         ``theta0``; ``"auto"`` takes it whenever the model qualifies and ``"dense"``
@@ -225,7 +226,7 @@ def reconstruct(
     )
     data = model.check_data(Y)
     settings = check_settings(
-        exponent, smoother, method, standardize, n_orient, n_sources=model.n_sources
+        exponent, smoother, path, standardize, n_orient, n_sources=model.n_sources
     )
     if memory_limit is not None:
         memory_limit = check_real("memory_limit", memory_limit, positive=True)
@@ -262,30 +263,30 @@ def run_checked(
     -------
     Reconstruction
     """
-    smoother, method = settings.smoother, settings.method
+    smoother, path = settings.smoother, settings.path
     problem = model.isotropic_problem()
-    if method == "auto":
-        method = "dense" if problem else "spectral"
-    if method == "spectral" and problem:
-        raise InputError(f"method='spectral' needs A = a I, Q = q I, P_0 = theta0 I: {problem}")
+    if path == "auto":
+        path = "dense" if problem else "spectral"
+    if path == "spectral" and problem:
+        raise InputError(f"path='spectral' needs A = a I, Q = q I, P_0 = theta0 I: {problem}")
     n, m, T = model.n_sources, model.n_channels, Y.shape[1]
-    if method != "spectral":
-        _warn_if_slow(method, model, T, problem is None)
+    if path != "spectral":
+        _warn_if_slow(path, model, T, problem is None)
         if problem is None:  # isotropic priors: a singular block is a dependent position
             check_positions_seen(model.L, model.R, settings.block)
-    memory.check_reconstruction(method, smoother, n, m, T, memory_limit)
-    if method == "spectral":
+    memory.check_reconstruction(path, smoother, n, m, T, memory_limit)
+    if path == "spectral":
         if prepared is None:
             return spectral.run(model, Y, settings, memory_limit)
         return prepared().checked_apply(Y, settings, memory_limit)
-    path = kalman.run if method == "filterpy" else dense.run
+    run = kalman.run if path == "filterpy" else dense.run
     try:
-        return path(model, Y, settings)
+        return run(model, Y, settings)
     except np.linalg.LinAlgError as err:
         hint = (
             ""
             if problem
-            else "; method='spectral' computes this isotropic model exactly without forming "
+            else "; path='spectral' computes this isotropic model exactly without forming "
             "these matrices"
         )
-        raise InputError(f"method={method!r} failed {str(err).rstrip('.')}{hint}") from err
+        raise InputError(f"path={path!r} failed {str(err).rstrip('.')}{hint}") from err

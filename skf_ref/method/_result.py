@@ -133,7 +133,7 @@ class Reconstruction:
     n_sources, n_times : int
     exponent : float
     smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
-    method : {"filterpy", "dense", "spectral"}
+    path : {"filterpy", "dense", "spectral"}
     theta0, q, transition : float or ndarray, shape (n_sources, n_sources)
     standardize : {"column", "position"}
     n_orient : {1, 3} or None
@@ -172,7 +172,7 @@ class Reconstruction:
         The standardization exponent alpha.
     smoother : str or None
         ``None``, ``"rts-standardized"``, ``"rts-state"`` or ``"rts-smoothed-weights"``.
-    method : str
+    path : str
         The path that computed it: ``"filterpy"``, ``"dense"`` or ``"spectral"``.
     theta0, q, transition : float or ndarray, shape (n_sources, n_sources)
         The model's ``P_0``, ``Q`` and ``A`` as given (a scalar ``c`` means ``c I``).
@@ -189,7 +189,7 @@ class Reconstruction:
     >>> z = np.array([[3.0], [4.0], [0.0], [1.0], [0.0], [0.0]])
     >>> r = Reconstruction(z=z, x=z, z_filtered=z, x_filtered=z, weights=z,
     ...                    log_likelihood=0.0, n_sources=6, n_times=1, exponent=0.5,
-    ...                    smoother=None, method="dense", theta0=1.0, q=0.0)
+    ...                    smoother=None, path="dense", theta0=1.0, q=0.0)
     >>> r
     <Reconstruction | 6 sources x 1 steps, dense, exponent 0.5, filter only>
     >>> r.amplitude(3).ravel().tolist()
@@ -209,7 +209,7 @@ class Reconstruction:
         n_times: int,
         exponent: float,
         smoother: str | None,
-        method: str,
+        path: str,
         theta0: float | NDArray[np.float64],
         q: float | NDArray[np.float64],
         transition: float | NDArray[np.float64] = 1.0,
@@ -237,7 +237,7 @@ class Reconstruction:
                 "covariances overflow"
             )
         self.log_likelihood = float(log_likelihood)
-        self.exponent, self.smoother, self.method = float(exponent), smoother, method
+        self.exponent, self.smoother, self.path = float(exponent), smoother, path
         self.theta0, self.q, self.transition = theta0, q, transition
         self.standardize, self.n_orient = standardize, n_orient
         self.tuning = tuning
@@ -403,7 +403,7 @@ class Reconstruction:
     def settings(self) -> dict[str, Any]:
         """What produced this result (dict); matrices are recorded as ``"matrix"``."""
         return {
-            "method": self.method,
+            "path": self.path,
             "exponent": self.exponent,
             "smoother": self.smoother,
             "standardize": self.standardize,
@@ -420,7 +420,7 @@ class Reconstruction:
         blocks = f", per position of {self.n_orient}" if self.standardize == "position" else ""
         return (
             f"<Reconstruction | {self.n_sources} sources x {self.n_times} steps{gaps}, "
-            f"{self.method}, exponent {self.exponent:g}, {smoother}{blocks}>"
+            f"{self.path}, exponent {self.exponent:g}, {smoother}{blocks}>"
         )
 
     def _repr_html_(self) -> str:
@@ -496,7 +496,7 @@ def stored_result(
         n_times=len(z),
         exponent=settings.exponent,
         smoother=settings.smoother,
-        method=path,
+        path=path,
         theta0=model.theta0,
         q=model.q,
         transition=model.transition,

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike
 from .._utils.checks import InputError, check_choice, check_int, check_real
 
 __all__ = [
-    "METHODS",
+    "PATHS",
     "PAPER_SETTING",
     "RECOMMENDED_SETTING",
     "SMOOTHERS",
@@ -55,7 +55,7 @@ SMOOTHERS = (None, "rts-standardized", "rts-state", "rts-smoothed-weights")
 #: paper's), or each source position's ``n_orient`` columns together.
 STANDARDIZATIONS = ("column", "position")
 #: The computational paths; "auto" takes the spectral one whenever the model allows it.
-METHODS = ("auto", "filterpy", "dense", "spectral")
+PATHS = ("auto", "filterpy", "dense", "spectral")
 
 
 @dataclass(frozen=True)
@@ -67,7 +67,7 @@ class Settings:
     exponent : float
         The standardization exponent alpha of §2.2 eq. (7), >= 0.
     smoother : {None, "rts-standardized", "rts-state", "rts-smoothed-weights"}
-    method : {"auto", "filterpy", "dense", "spectral"}
+    path : {"auto", "filterpy", "dense", "spectral"}
     standardize : {"column", "position"}
     n_orient : {1, 3} or None
         Columns per source position (None: not given, allowed with ``"column"`` only).
@@ -75,7 +75,7 @@ class Settings:
 
     exponent: float = 0.5
     smoother: str | None = None
-    method: str = "auto"
+    path: str = "auto"
     standardize: str = "column"
     n_orient: int | None = None
 
@@ -107,7 +107,7 @@ def check_smoother(smoother: object) -> str | None:
 def check_settings(
     exponent: object = 0.5,
     smoother: object = None,
-    method: object = "auto",
+    path: object = "auto",
     standardize: object = "column",
     n_orient: object = None,
     n_sources: int | None = None,
@@ -119,7 +119,7 @@ def check_settings(
     exponent : float
         >= 0.
     smoother : {None, "none", "rts-standardized", "rts-state", "rts-smoothed-weights"}
-    method : {"auto", "filterpy", "dense", "spectral"}
+    path : {"auto", "filterpy", "dense", "spectral"}
     standardize : {"column", "position"}
         ``"position"`` needs ``n_orient``.
     n_orient : {1, 3}, optional
@@ -134,11 +134,11 @@ def check_settings(
     Examples
     --------
     >>> check_settings(1, "none")
-    Settings(exponent=1.0, smoother=None, method='auto', standardize='column', n_orient=None)
-    >>> check_settings(method="kalman")
+    Settings(exponent=1.0, smoother=None, path='auto', standardize='column', n_orient=None)
+    >>> check_settings(path="kalman")
     Traceback (most recent call last):
     ...
-    skf_ref._utils.checks.InputError: method must be one of ['auto', 'filterpy', 'dense', \
+    skf_ref._utils.checks.InputError: path must be one of ['auto', 'filterpy', 'dense', \
 'spectral'], got 'kalman'
     >>> check_settings(standardize="position")
     Traceback (most recent call last):
@@ -164,7 +164,7 @@ per source position (3 for free orientation, 1 for fixed)
     return Settings(
         exponent=check_real("exponent", exponent, nonnegative=True),
         smoother=check_smoother(smoother),
-        method=check_choice("method", method, METHODS),
+        path=check_choice("path", path, PATHS),
         standardize=form,
         n_orient=n_orient,
     )

@@ -304,7 +304,7 @@ class SpectralBasis:
         >>> rng = np.random.default_rng(0)
         >>> L, Y = rng.standard_normal((6, 9)), rng.standard_normal((6, 5))
         >>> basis = SpectralBasis(L, np.eye(6))
-        >>> rec = reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, method="dense")
+        >>> rec = reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, path="dense")
         >>> direct = np.sum((Y - L @ rec.x_filtered) ** 2)
         >>> bool(np.isclose(basis.residual_energy(Y, 1.0, 0.1), direct, rtol=1e-12))
         True

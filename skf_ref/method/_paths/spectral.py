@@ -356,7 +356,7 @@ class SpectralModel:
             n_times=T,
             exponent=exponent,
             smoother=smoother,
-            method="spectral",
+            path="spectral",
             theta0=self.model.theta0,
             q=self.model.q,
             transition=self.model.transition,
