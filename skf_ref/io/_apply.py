@@ -113,30 +113,14 @@ def apply_skf(
     per-position norm (``pick_ori=None``) or the three components (``"vector"``); fixed
     orientation gives the signed estimate.
 
-    Which setting. The defaults are the setting the evidence study v3's pre-registered rule
-    chose (docs/choosing.md): exponent 0.5 with ``"rts-smoothed-weights"``
+    Which setting. The defaults are exponent 0.5 with ``"rts-smoothed-weights"``
     (:data:`skf_ref.RECOMMENDED_SETTING`), each source position standardized as a whole
-    (``standardize="position"``, ``n_orient`` from the forward: for a fixed-orientation
-    forward it equals the per-column form; with EEG: for MEG alone, whose blocks are
-    singular where the radial orientation is silent, ``"column"``), PM-SNR 0 dB and the
-    AR(1) prior with its time constant chosen by the data. The 0.4 defaults are
-    ``ep_snr_db=0, smoother=None``; the paper's form is ``standardize="column"``, and the
-    defaults before 0.4.0 were ``standardize="column"`` with EP-SNR 20 dB. On an MNE sphere
-    forward (12 mm volume grid of 1254 positions, biosemi64; one dipole at a time at 9
-    positions from the bottom of the grid to its top, 30 averaged epochs, peak SNR 20 dB,
-    EP-SNR 20 dB; ``tests/test_apply.py`` measures this) the peak at the pulse's maximum
-    was, median (range) over the dipoles, with ``standardize="column"``: 17 mm (0-69) off
-    with exponent 0.5 and no smoothing, 17 mm (0-51) with ``"rts-state"``, 24 mm (17-74)
-    with ``"rts-standardized"``, and 50 mm (29-123) with exponent 1.25 and no smoothing
-    (the maximum goes to weakly seen positions, the bottom of the grid). The largest errors
-    belong to the deepest dipoles: free orientation standardized column by column
-    (docs/model.md §1) is not rotation invariant and misplaces deep sources by a grid step
-    or more even without noise. ``standardize="position"`` standardizes each position as a whole
-    and finds a noise-free dipole of any orientation at its position (docs/model.md §2): on
-    the same dipoles 17 mm (0-29) without smoothing, 12 mm (0-29) with ``"rts-state"``, and
-    0 mm (0-12, every dipole within one grid step) with ``"rts-smoothed-weights"``, the
-    smoothed state standardized by its own variance (docs/model.md §3;
-    ``tests/test_standardize_routes.py``).
+    (``standardize="position"``, ``n_orient`` from the forward; for MEG alone, whose blocks
+    are singular where the radial orientation is silent, ``"column"``), PM-SNR 0 dB and the
+    AR(1) prior with its time constant chosen by the data. The paper's form is
+    ``standardize="column"``, which is not rotation invariant for a free orientation
+    (docs/model.md §2). docs/choosing.md says how the defaults were chosen and where they
+    lose; the CHANGELOG, what they were before.
 
     Parameters
     ----------

@@ -151,16 +151,14 @@ def make_skf_operator(
         dB for the PM-SNR. ``"auto"`` or a range ``(low, high)`` in dB: chosen from each data
         set the operator is applied to by the marginal likelihood (:func:`skf_ref.tune`;
         ``"auto"`` searches -20 to 40 dB). ``ep_snr_db`` given: the paper's random walk at
-        that EP-SNR (its default before 0.5.0 was the walk at 0 dB); None (default): the
-        AR(1) prior below.
+        that EP-SNR; None (default): the AR(1) prior below.
     time_constant_ms : float or "auto" or (float, float), optional
         In place of the EP-SNR's random walk, the stationary AR(1) prior
         (:func:`skf_ref.ar1_priors`): the sources' time constant in ms, ``rho =
         exp(-dt / tau)`` with ``dt`` from the data's ``info["sfreq"]``; ``"auto"`` or a
         range ``(low, high)`` in ms: chosen from each data set by the marginal likelihood in
         ``log(tau)`` (``"auto"`` searches 1 to 1000 ms). Give it or ``ep_snr_db``, not
-        both. Default None: ``"auto"`` (the evidence study v3's rule,
-        validation/reproduce/PREREGISTRATION.md), unless ``ep_snr_db`` is given.
+        both. Default None: ``"auto"`` (docs/choosing.md), unless ``ep_snr_db`` is given.
     meg : None or bool or "mag" or "grad"
         MEG channels: None (default) uses them when the info, the forward and the noise
         covariance share them; True asks for them; ``"mag"`` or ``"grad"`` for one kind

@@ -224,10 +224,9 @@ class SKFOperator:
         """What :meth:`reconstruct` standardizes as a whole by default (str).
 
         ``"position"`` (each position's orientations as a whole) when the operator uses EEG
-        channels: the setting the pre-registered study chose, on EEG
-        (validation/archive/report-v2/REPORT.md). ``"column"`` for MEG alone: MEG barely
-        sees, and in a spherical head does not see, a position's radial orientation, so its
-        3 x 3 blocks are singular or nearly so; the study did not measure MEG.
+        channels (docs/choosing.md). ``"column"`` for MEG alone: MEG barely sees, and in a
+        spherical head does not see, a position's radial orientation, so its 3 x 3 blocks
+        are singular or nearly so.
         """
         return "position" if self.eeg_names else "column"
 
@@ -431,8 +430,8 @@ class SKFOperator:
             Each source position's ``n_components`` columns standardized as a whole
             (docs/model.md §2; with fixed orientation the same as ``"column"``), or each
             column of the forward on its own (the paper's). Default
-            ``default_standardize``: ``"position"`` when the operator uses EEG (the
-            setting the study chose, on EEG), ``"column"`` for MEG alone.
+            ``default_standardize``: ``"position"`` when the operator uses EEG,
+            ``"column"`` for MEG alone.
         time_constant_ms : float or "auto" or (float, float), optional
             None (default): the operator's evolution prior (``ep_snr_db`` or
             ``time_constant_ms``). A time constant in ms, ``"auto"`` or a range: the

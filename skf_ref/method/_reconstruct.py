@@ -115,16 +115,13 @@ def reconstruct(
     carry, float32 included); other mismatches cannot be seen in the arrays, and give a
     wrong estimate without an error (docs/model.md §1).
 
-    Which setting to use. The study's pre-registered rule
-    (validation/archive/report-v2/REPORT.md) chose exponent 0.5 without smoothing (the
-    defaults, :data:`skf_ref.RECOMMENDED_SETTING`), each source position standardized as a
-    whole, and priors PM-SNR 0 dB, EP-SNR 0 dB. An
-    array does not say which columns form a position, so ``standardize`` defaults to
-    ``"column"`` here: for a free-orientation lead field (three columns per position, MNE's
-    order) pass ``standardize="position", n_orient=3`` to run the rule's setting (the MNE
-    routes, :func:`skf_ref.apply_skf`, take ``n_orient`` from the forward and default to
-    it). The paper's setting, :data:`skf_ref.PAPER_SETTING` (exponent 1.25, smoothed), puts
-    activity in the deep region whether or not a deep source is there.
+    Which setting to use. Here the defaults are the filter alone at exponent 0.5. An array
+    does not say which columns form a position, so ``standardize`` defaults to ``"column"``:
+    for a free-orientation lead field (three columns per position, MNE's order) pass
+    ``standardize="position", n_orient=3`` (the MNE routes, :func:`skf_ref.apply_skf`, take
+    ``n_orient`` from the forward and default to the package's recommended setting,
+    docs/choosing.md). The paper's setting is :data:`skf_ref.PAPER_SETTING` (exponent 1.25,
+    smoothed; docs/model.md §7 on what it does to a deep region).
 
     Missing steps. A column of ``Y`` that is all NaN is a step without a measurement (a bad
     segment, say): the filter predicts across it without an update, so nothing of it
@@ -174,8 +171,8 @@ def reconstruct(
     standardize : {"column", "position"}
         ``"column"`` (the paper's, the default here, as an array does not say which columns
         form a position) standardizes each column of ``L`` by its own weight;
-        ``"position"`` (the study's rule's; pass ``n_orient=3`` for a free-orientation lead
-        field) each source position's ``n_orient`` columns by their block of the weights
+        ``"position"`` (the MNE routes' default; pass ``n_orient=3`` for a free-orientation
+        lead field) each source position's ``n_orient`` columns by their block of the weights
         matrix, as sLORETA does for free orientations (Pascual-Marqui 2002): the result
         then does not depend on the coordinate axes, and a noise-free dipole of
         any orientation is found at its position at the first step (docs/model.md §2).
