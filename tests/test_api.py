@@ -97,6 +97,7 @@ PUBLIC_API = {
         "HeadModel",
         "Scenario",
         "Simulation",
+        "Truth",
         "apply_minimum_norm",
         "cache_dir",
         "calibrate",

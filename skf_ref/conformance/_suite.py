@@ -363,7 +363,7 @@ def _checked_formats(formats):
 def build(directory: str | os.PathLike, formats: Sequence[str] = FORMATS) -> list[Path]:
     """Compute every case afresh and write a suite: how a new suite version is made.
 
-    Writes :func:`~skf_ref.conformance._cases.generate`'s cases in each format and their
+    Writes ``generate``'s cases in each format and their
     ``manifest.json`` (with each file's sha256) to ``directory``. The files are the same,
     byte for byte, each time it runs in one environment (no dates inside); they record
     the ``skf_ref`` version that computed them. Pinning a new version: raise

@@ -32,6 +32,7 @@ _HOMES = {
     "make_sphere_head": "_head",
     "Scenario": "_scenario",
     "Simulation": "_scenario",
+    "Truth": "_scenario",
     "p20n20_scenario": "_scenario",
     "simulate": "_scenario",
     "draw_sources": "_sources",

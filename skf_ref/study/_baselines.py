@@ -7,7 +7,7 @@ scored by the same metrics (:func:`skf_ref.study._metrics.summarize`).
 
 - :func:`mne_data`: an ``mne.EvokedArray`` of a simulation with MNE's average-reference
   projector, and the ``mne.Covariance`` its noise was drawn from;
-- :func:`inverse_operator` / :func:`apply_minimum_norm`: MNE's minimum norm, dSPM, sLORETA
+- ``inverse_operator`` / :func:`apply_minimum_norm`: MNE's minimum norm, dSPM, sLORETA
   and eLORETA (``mne.minimum_norm``), free orientation, no depth weighting (the SKF has
   none), one operator for many data sets;
 - :func:`amplitude_on_positions`: an MNE estimate's rows on the head's positions (sparse
@@ -107,7 +107,7 @@ def apply_minimum_norm(
     sim : Simulation
         The data to reconstruct.
     inverse : mne.minimum_norm.InverseOperator
-        From :func:`inverse_operator`.
+        From ``inverse_operator``.
     method : {"MNE", "dSPM", "sLORETA", "eLORETA"}
         MNE's method.
     lambda2 : float

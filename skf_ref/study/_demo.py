@@ -181,7 +181,7 @@ def run_demo(
     Parameters
     ----------
     out : path-like or None
-        Folder to write :data:`OUTPUTS` into (created; checked before any computation);
+        Folder to write ``OUTPUTS`` into (created; checked before any computation);
         None: nothing is written.
     snr_db : float
         Peak SNR of the data (dB).
@@ -222,7 +222,7 @@ def run_demo(
         default, the study's rule's) or each column on its own (the paper's, which the
         paper's setting keeps).
     overwrite : bool
-        Replace files of ``out`` named like :data:`OUTPUTS`. False: such a file is refused
+        Replace files of ``out`` named like ``OUTPUTS``. False: such a file is refused
         before any computation (and one that appears meanwhile is never replaced).
     verbose : bool or str or int or None
         Progress on the ``"skf_ref"`` logger, as MNE's ``verbose``.
@@ -566,7 +566,7 @@ def _settings(
 
 
 def write(demo: Demo, out: str | os.PathLike, overwrite: bool = True) -> None:
-    """Write a demo's :data:`OUTPUTS` into a folder, each file atomically.
+    """Write a demo's ``OUTPUTS`` into a folder, each file atomically.
 
     Parameters
     ----------

@@ -7,12 +7,12 @@ produce (with the same head, method and noise level):
 
 - the statistic, :func:`thalamic_level`: the maximum amplitude over the thalamus' positions
   at the thalamic source's peak time;
-- the threshold, :func:`null_threshold`: the largest of the 95th percentiles of the
+- the threshold, ``null_threshold``: the largest of the 95th percentiles of the
   statistic over each kind of null run (noise only; a single cortical source at a random
   position and orientation), each taken as an order statistic, so that at most 5 % of every
   kind of null run exceeds it;
 - a run detects a thalamic source when its statistic exceeds the threshold;
-- :func:`null_levels` simulates the null runs for a head, a noise level and any methods;
+- ``null_levels`` simulates the null runs for a head, a noise level and any methods;
   :func:`calibrate` turns them into each method's threshold for one simulated data set.
 
 The threshold holds only for the head, method, setting and noise level it was calibrated
@@ -181,7 +181,7 @@ def calibrate(
 ) -> dict[str, float]:
     """Each method's threshold on the thalamus' level, for the head and noise of ``sim``.
 
-    The null runs (:func:`null_levels`, ``n_runs`` of each kind) have the noise level of
+    The null runs (``null_levels``, ``n_runs`` of each kind) have the noise level of
     ``sim`` and its superficial source's waveform, read at the deep source's peak sample.
 
     Parameters
@@ -202,7 +202,7 @@ def calibrate(
     Returns
     -------
     dict
-        Name -> threshold (:func:`null_threshold`): a run detects when its level exceeds it.
+        Name -> threshold (``null_threshold``): a run detects when its level exceeds it.
     """
     from .._utils.checks import check_int
 

@@ -437,7 +437,7 @@ def summarize(reconstruction: Any, head: Any, truth: Any) -> dict[str, Any]:
     Parameters
     ----------
     reconstruction : object with ``amplitude(n_components)``, or ndarray
-        See :func:`as_amplitude`; amplitude shape (n_positions, n_times).
+        See ``as_amplitude``; amplitude shape (n_positions, n_times).
     head : HeadModel
         Anything with ``positions`` (ndarray, shape (n_positions, 3), metres).
     truth : Truth

@@ -3,7 +3,7 @@
 Where the maximum lies, how far the estimate spreads, and how much of it reaches the
 thalamus. Every function takes ``amplitude``, shape (n_positions, n_runs): the position
 amplitudes of many estimates at one time each (one column per run: the norm of a position's
-components, :func:`position_amplitudes`), the grid ``positions`` (n_positions, 3) and the
+components, ``position_amplitudes``), the grid ``positions`` (n_positions, 3) and the
 runs' exact source points (n_runs, 3), in metres; distances come out in mm. They are the
 vectorized counterparts, at one time, of :mod:`skf_ref.study._metrics` (same definitions):
 
@@ -79,7 +79,7 @@ def peak_errors(
     Parameters
     ----------
     amplitude : ndarray, shape (n_positions, n_runs)
-        Position amplitudes, one column per run (:func:`position_amplitudes`).
+        Position amplitudes, one column per run (``position_amplitudes``).
     positions : ndarray, shape (n_positions, 3)
         The grid, m.
     points : ndarray, shape (n_runs, 3)
@@ -114,7 +114,7 @@ def spatial_dispersion(
     Parameters
     ----------
     amplitude : ndarray, shape (n_positions, n_runs)
-        Position amplitudes, one column per run (:func:`position_amplitudes`).
+        Position amplitudes, one column per run (``position_amplitudes``).
     positions : ndarray, shape (n_positions, 3)
         The grid, m.
     points : ndarray, shape (n_runs, 3)

@@ -139,7 +139,7 @@ class Scenario:
     labels : tuple of str
         Anatomical label each source must lie in (used where the head has labels).
     window : str
-        Pulse window, one of :data:`WINDOWS`.
+        Pulse window, one of ``WINDOWS``.
     """
 
     names: tuple[str, ...]
@@ -266,8 +266,8 @@ def p20n20_scenario(
     "blackman-harris") peaking at `peak_amplitude_nam` in its centre: deep on [0, 3] ms (peak
     1.5 ms), superficial on [1, 4] ms (peak 2.5 ms) by default, sampled at `sfreq` over
     0..`duration_ms` inclusive (41 samples). Positions in mm and orientations, both in
-    `frame`: ``"mni"`` (the default: :data:`DEEP_MNI_MM` in the left thalamus' VPL nucleus,
-    :data:`SUPERFICIAL_MNI_MM` on the posterior wall of the left central sulcus) or
+    `frame`: ``"mni"`` (the default: ``DEEP_MNI_MM`` in the left thalamus' VPL nucleus,
+    ``SUPERFICIAL_MNI_MM`` on the posterior wall of the left central sulcus) or
     ``"head"`` (head coordinates). :meth:`Scenario.dipoles` places them in a head,
     normalizes the orientations and makes the superficial one tangential.
 

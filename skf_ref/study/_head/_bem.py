@@ -12,13 +12,13 @@ never downloaded):
 - **Sources**: ``"anatomical"``, MNE's volume source space restricted to the cortex and
   thalamus labels of the subject's ``aseg.mgz`` (:data:`LABELS`) on a 5 mm grid, 5 mm inside
   the inner skull (:func:`mne.setup_volume_source_space`); or ``"volume"``, a grid filling the
-  inner skull (same margin) at :data:`VOLUME_SPACING_MM`, about 3000 positions like the
+  inner skull (same margin) at ``VOLUME_SPACING_MM``, about 3000 positions like the
   sphere's volume grid. Both grids are axis aligned in the subject's MRI coordinates.
 - **Sensors**: the montage's channels at their MNI positions in MNE's 10-05 template (the
   Colin27 positions MNE ships), mapped into the subject by :func:`subject_mni_to_head` and
   moved to the nearest point of the scalp surface; or, with the montage
-  :data:`SUBJECT_MONTAGE` (``"sample"``), the subject's own electrodes as digitized on its
-  head, with the noise covariance of its recording (:func:`subject_electrodes`).
+  ``SUBJECT_MONTAGE`` (``"sample"``), the subject's own electrodes as digitized on its
+  head, with the noise covariance of its recording (``subject_electrodes``).
 - **MNI coordinates**: :func:`subject_mni_to_head`, the inverse of the affine
   :func:`mne.head_to_mni` applies (the subject's ``talairach.xfm``, its MRI geometry and
   the head <-> MRI transform ``sample_audvis_trunc-trans.fif``).
@@ -94,13 +94,13 @@ def make_realistic_head(
         Cortex + thalamus, or a grid filling the inner skull.
     montage : str
         A built-in montage whose channel names are 10-05 names (e.g. ``"biosemi64"``), or
-        :data:`SUBJECT_MONTAGE` (``"sample"``): the subject's own electrodes, with the noise
-        covariance of its recording as ``head.noise_cov`` (:func:`subject_electrodes`).
+        ``SUBJECT_MONTAGE`` (``"sample"``): the subject's own electrodes, with the noise
+        covariance of its recording as ``head.noise_cov`` (``subject_electrodes``).
     cache_dir : path-like or None
         Where the forward models are cached (:func:`skf_ref.study._head.cache_dir`).
     spacing_mm : float or None
-        The source grid's spacing; None: :data:`ANATOMICAL_SPACING_MM` (cortex + thalamus)
-        or :data:`VOLUME_SPACING_MM` (the grid filling the inner skull).
+        The source grid's spacing; None: ``ANATOMICAL_SPACING_MM`` (cortex + thalamus)
+        or ``VOLUME_SPACING_MM`` (the grid filling the inner skull).
 
     Returns
     -------

@@ -18,7 +18,7 @@ of a cubic lattice; about 420 positions for ``biosemi64``) always ensures.
 Cortex and thalamus in a sphere. The sphere has no anatomy; its nearest equivalent of the
 realistic head's cortex + thalamus source space (:data:`SHELL_DEPTH_MM`,
 :data:`THALAMUS_RADIUS_MM`, :data:`THALAMUS_MNI_MM`) is, on a 6 mm lattice centred like the
-volume grid (:data:`SPHERE_ANATOMICAL_SPACING_MM`: about as many positions as the sample
+volume grid (``SPHERE_ANATOMICAL_SPACING_MM``: about as many positions as the sample
 subject's 5 mm cortex + thalamus): the *cortex*, every position 5-20 mm below the brain
 sphere's surface at or above the plane of the montage's fiducials (the sample subject's 5 mm
 cortex positions lie 9-53 mm, median 28 mm, below its inner skull, and all above that plane;
@@ -139,7 +139,7 @@ def make_sphere_head(
     montage : str
         Name of an MNE built-in montage.
     spacing_mm : float or None
-        The anatomical lattice's spacing; None: :data:`SPHERE_ANATOMICAL_SPACING_MM`.
+        The anatomical lattice's spacing; None: ``SPHERE_ANATOMICAL_SPACING_MM``.
 
     Returns
     -------

@@ -72,7 +72,7 @@ def plot_average_reconstruction(
     head : HeadModel
         Its positions must form a regular cubic grid.
     truth : Truth
-        The exact sources (:class:`skf_ref.study._scenario.Truth`).
+        The exact sources (``Truth``).
     times_ms : sequence of float
         Times to show, in ms; each uses the nearest sample.
     dynamic_range_db : float
@@ -214,7 +214,7 @@ def plot_comparison(
     head : HeadModel
         Its positions must form a regular cubic grid.
     truth : Truth
-        The exact sources (:class:`skf_ref.study._scenario.Truth`).
+        The exact sources (``Truth``).
     absent : dict, optional
         ``{data: names}``: the sources (``"deep"``, ``"superficial"``) left out of a data
         set; drawn faint, and a deep detection there is marked as false (red).

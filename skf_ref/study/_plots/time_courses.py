@@ -66,7 +66,7 @@ def plot_time_courses(
     head : HeadModel
         Its ``positions`` (n_positions, 3), metres.
     truth : Truth
-        The exact sources (:class:`skf_ref.study._scenario.Truth`).
+        The exact sources (``Truth``).
     ax : matplotlib.axes.Axes, optional
         Axes to draw in; a new figure if None.
     title : str, optional
@@ -130,7 +130,7 @@ def plot_prior_grid(
     head : HeadModel
         Its ``positions`` (n_positions, 3), metres.
     truth : Truth
-        The exact sources (:class:`skf_ref.study._scenario.Truth`).
+        The exact sources (``Truth``).
     title : str, optional
         Figure title (e.g. the noise level and smoothing).
     path : str or path-like, optional
@@ -177,7 +177,7 @@ def plot_exponent_comparison(
     head : HeadModel
         Its ``positions`` (n_positions, 3), metres.
     truth : Truth
-        The exact sources (:class:`skf_ref.study._scenario.Truth`).
+        The exact sources (``Truth``).
     title : str, optional
         The figure's title; None: none.
     path : str or path-like, optional

@@ -36,7 +36,7 @@ def paper_grid(seeds: int = 10) -> dict[str, list[Any]]:
     Returns
     -------
     dict
-        Axis name -> its values (:data:`AXES`), 1440 runs with 10 seeds.
+        Axis name -> its values (``AXES``), 1440 runs with 10 seeds.
 
     Examples
     --------
@@ -61,13 +61,13 @@ def check_grid(grid: Mapping[str, Any]) -> dict[str, list[Any]]:
     Parameters
     ----------
     grid : mapping
-        Axis name -> non-empty list of values, for every name in :data:`AXES`.
+        Axis name -> non-empty list of values, for every name in ``AXES``.
 
     Returns
     -------
     dict
         Axis name -> its values, checked and normalized (``"none"`` as None, numbers as
-        float, seeds as int), in the order of :data:`AXES`.
+        float, seeds as int), in the order of ``AXES``.
 
     Examples
     --------

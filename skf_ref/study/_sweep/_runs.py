@@ -88,7 +88,7 @@ def run_group(
         ``source_space``, ``testing_data``, ``cache_dir``...); None: the sphere's volume grid
         of ``n_positions``.
     data : dict or None
-        Keyword arguments of :func:`run_on_head` that shape the data (``sources``,
+        Keyword arguments of ``run_on_head`` that shape the data (``sources``,
         ``forward``, ``window``).
 
     Returns
@@ -286,7 +286,7 @@ def run_sweep(
     Parameters
     ----------
     grid : mapping
-        Axis -> values over :data:`AXES`; see :func:`paper_grid`.
+        Axis -> values over ``AXES``; see :func:`paper_grid`.
     out : path-like
         Results file: CSV, or Parquet when the name ends ``.parquet``.
     n_jobs : int
@@ -314,7 +314,7 @@ def run_sweep(
         :func:`skf_ref.study._head.make_head` (built once here, to check it and count its
         positions, then in each worker; a BEM head's forward comes from the disk cache).
     data : dict or None
-        Keyword arguments of :func:`run_on_head` that shape the data: ``sources`` (the
+        Keyword arguments of ``run_on_head`` that shape the data: ``sources`` (the
         controls: one source, the noise of both), ``forward``, ``window``. A results file
         holds one head and one kind of data; another is refused.
 
