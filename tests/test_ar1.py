@@ -86,7 +86,7 @@ def epochs(draw):
 def test_the_filtered_estimate_does_not_depend_on_the_steps_that_follow(problem):
     L, Y, sigma = problem["L"], problem["Y"], problem["sigma"]
     half = Y.shape[1] // 2
-    common = dict(noise_std=sigma, method=problem["method"], exponent=problem["exponent"])
+    common = dict(noise_std=sigma, path=problem["method"], exponent=problem["exponent"])
     theta0, q, rho = problem["priors"]
     whole = reconstruct(L, Y, theta0=theta0, q=q, transition=rho, **common)
     first = reconstruct(L, Y[:, :half], theta0=theta0, q=q, transition=rho, **common)

@@ -102,9 +102,9 @@ def test_main_fails_on_a_wrong_path(monkeypatch, capsys):
     # A path that is wrong by 1e-6 must be caught: the harness itself is under test.
     reconstruct = cc.reconstruct
 
-    def perturbed(L, Y, *, method, **kwargs):
-        result = reconstruct(L, Y, path=method, **kwargs)
-        if method == "filterpy":
+    def perturbed(L, Y, *, path, **kwargs):
+        result = reconstruct(L, Y, path=path, **kwargs)
+        if path == "filterpy":
             z = result.z.copy()
             z[0, 0] *= 1 + 1e-6
             result._arrays["z"] = z

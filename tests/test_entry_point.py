@@ -50,7 +50,7 @@ def test_a_long_run_warns_before_it_starts(method):
     # 3000 sources x 2000 steps: estimated at about 1e6 s; the memory budget stops it
     # before any work, after the warning
     L, Y = np.eye(4, 3000) + 1.0, np.ones((4, 2000))
-    expected = rf"method='{method}' on 3000 sources x 2000 steps is estimated to take 1.08e\+06 s"
+    expected = rf"path='{method}' on 3000 sources x 2000 steps is estimated to take 1.08e\+06 s"
     with pytest.warns(UserWarning, match=expected + ".*path='spectral' computes this"):
         with pytest.raises(MemoryError, match="stores 2000 covariances"):
             reconstruct(L, Y, noise_std=1.0, theta0=1.0, q=0.1, path=method, memory_limit=1e6)
@@ -62,7 +62,7 @@ def test_a_short_run_does_not_warn_unless_the_machine_is_slow(monkeypatch):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         reconstruct(L, Y, **kwargs)
-        reconstruct(L, Y, **{**kwargs, "method": "spectral"})  # never estimated
+        reconstruct(L, Y, **{**kwargs, "path": "spectral"})  # never estimated
     monkeypatch.setattr(_reconstruct, "_FLOPS_PER_SECOND", 1.0)
     with pytest.warns(UserWarning, match=r"10 sources x 5 steps is estimated to take 1.24e\+05 s"):
         reconstruct(L, Y, **kwargs)
@@ -79,7 +79,7 @@ def test_the_settings_are_checked_in_one_place():
         (dict(exponent=-1), "exponent must be >= 0, got -1.0"),
         (dict(exponent="1"), r"exponent must be a real number, got '1' \(str\)"),
         (dict(smoother="rts"), r"smoother must be one of \[None, 'rts-standardized', 'rts-st"),
-        (dict(method="kalman"), r"path must be one of \['auto', 'filterpy', 'dense', 'spe"),
+        (dict(path="kalman"), r"path must be one of \['auto', 'filterpy', 'dense', 'spe"),
     ]:
         with pytest.raises(InputError, match=match):
             check_settings(**kwargs)

@@ -92,7 +92,7 @@ def _summary(values):
     rows = []
     for method, (deep, detection) in values.items():
         for design in ("D1", "ERP"):
-            rows.append(dict(design=design, path=method, **{
+            rows.append(dict(design=design, method=method, **{
                 "deep error": deep, "superficial error": 5.0, "EMD": 50.0,
                 "detection": detection, "r": 0.8, "latency": 0.0,
             }))  # fmt: skip

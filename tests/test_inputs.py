@@ -168,8 +168,8 @@ CASES = {
         r"'rts-smoothed-weights', 'none'\], got 'rts'",
     ),
     "smoother True": (_with("smoother", True), ValueError, "smoother must be one of"),
-    "unknown method": (
-        _with("method", "cuda"),
+    "unknown path": (
+        _with("path", "cuda"),
         ValueError,
         r"path must be one of \[.*'filterpy', 'dense'.*\], got 'cuda'",
     ),

@@ -135,9 +135,9 @@ def test_auto_takes_spectral_when_the_model_qualifies():
     rng = np.random.default_rng(0)
     L, Y = rng.standard_normal((5, 8)), rng.standard_normal((5, 4))
     kwargs = dict(noise_std=1.0, theta0=1.0, q=0.1)
-    assert reconstruct(L, Y, **kwargs).method == "spectral"
-    assert reconstruct(L, Y, **kwargs, transition=0.5 * np.eye(8)).method == "spectral"
-    assert reconstruct(L, Y, **kwargs, transition=np.diag(np.arange(1.0, 9))).method == "dense"
+    assert reconstruct(L, Y, **kwargs).path == "spectral"
+    assert reconstruct(L, Y, **kwargs, transition=0.5 * np.eye(8)).path == "spectral"
+    assert reconstruct(L, Y, **kwargs, transition=np.diag(np.arange(1.0, 9))).path == "dense"
 
 
 @pytest.mark.parametrize(

@@ -4,7 +4,7 @@
 ``[--paths P1,P2] [--blas-threads N] [--competitor] [--floor] [--long] [--no-table]``
 
 Each row runs one path on one size: the SKF with ``"rts-standardized"`` smoothing
-(``skf_ref.reconstruct`` with ``method`` = filterpy, dense or spectral, asking for ``z``;
+(``skf_ref.reconstruct`` with ``path`` = filterpy, dense or spectral, asking for ``z``;
 its time includes every preparation, the SVD among them), ``apply_skf`` (the MNE route at
 its defaults, exponent 0.5 without smoothing: channel picking, MNE's whitener, the spectral
 path and the source estimate, from an evoked, a forward and a covariance), ``tune``

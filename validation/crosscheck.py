@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from skf_ref import priors_from_snr, reconstruct
-from skf_ref.method._settings import METHODS
+from skf_ref.method._settings import PATHS as ALL_PATHS
 
 __all__ = [
     "TOLERANCE",
@@ -103,7 +103,7 @@ class Problem:
     Y : ndarray, shape (n_channels, n_times)
     kwargs : dict
         Keyword arguments of :func:`skf_ref.reconstruct` other than ``L``, ``Y`` and
-        ``method``.
+        ``path``.
     """
 
     name: str
@@ -230,7 +230,7 @@ def qualifies(path, problem):
     Parameters
     ----------
     path : str
-        A ``method`` of :func:`skf_ref.reconstruct`.
+        A ``path`` of :func:`skf_ref.reconstruct`.
     problem : Problem
 
     Returns
@@ -270,7 +270,7 @@ def _compare(problem, path, reference):
     row = {"problem": problem.name, "path": path, **problem.labels}
     if not qualifies(path, problem):
         return dict(row, skipped=True, **{q: float("nan") for q in QUANTITIES})
-    result = reconstruct(problem.L, problem.Y, method=path, **problem.kwargs)
+    result = reconstruct(problem.L, problem.Y, path=path, **problem.kwargs)
     differences = {
         q: relative_difference(getattr(result, q), getattr(reference, q)) for q in QUANTITIES
     }
@@ -297,7 +297,7 @@ def crosscheck(paths=PATHS, problems=None):
     problems = make_problems() if problems is None else problems
     rows = []
     for problem in problems:
-        reference = reconstruct(problem.L, problem.Y, method=REFERENCE, **problem.kwargs)
+        reference = reconstruct(problem.L, problem.Y, path=REFERENCE, **problem.kwargs)
         rows += [_compare(problem, path, reference) for path in paths]
     return rows
 
@@ -380,10 +380,10 @@ def main(argv=None):
         0 if at least one comparison was made and every difference is within
         :data:`TOLERANCE`, else 1.
     """
-    choices = [m for m in METHODS if m not in ("auto", REFERENCE)]
+    choices = [m for m in ALL_PATHS if m not in ("auto", REFERENCE)]
     parser = argparse.ArgumentParser(
         prog="python -m validation.crosscheck",
-        description=f"Compare skf_ref.reconstruct paths with method={REFERENCE!r}.",
+        description=f"Compare skf_ref.reconstruct paths with path={REFERENCE!r}.",
     )
     parser.add_argument(
         "--paths", nargs="+", choices=choices, default=list(PATHS), help="paths to compare"

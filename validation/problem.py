@@ -55,15 +55,15 @@ def make_problem(n_columns: int, n_channels: int, n_times: int, seed: int = 0) -
     return dict(head=head, Y=Y, noise_std=noise_std, theta0=theta0, q=q)
 
 
-def skf_runner(problem: dict[str, Any], method: str) -> Callable[[], np.ndarray]:
+def skf_runner(problem: dict[str, Any], path: str) -> Callable[[], np.ndarray]:
     """``reconstruct(...).z`` of ``problem``, smoothed ("rts-standardized", exponent 1.25).
 
     Parameters
     ----------
     problem : dict
         As :func:`make_problem` returns.
-    method : {"dense", "filterpy", "spectral"}
-        The path (``reconstruct``'s ``method``).
+    path : {"dense", "filterpy", "spectral"}
+        The path (``reconstruct``'s ``path``).
 
     Returns
     -------
@@ -83,7 +83,7 @@ def skf_runner(problem: dict[str, Any], method: str) -> Callable[[], np.ndarray]
             q=problem["q"],
             exponent=1.25,
             smoother="rts-standardized",
-            method=method,
+            path=path,
         )
         return rec.z  # the spectral path computes outputs on access
 

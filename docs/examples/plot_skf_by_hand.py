@@ -97,8 +97,8 @@ print("rts-standardized:\n", s.round(4))
 
 setting = dict(noise_std=sigma, theta0=theta0, q=q, exponent=exponent)
 for method in ("dense", "filterpy", "spectral"):
-    rec = skf_ref.reconstruct(L, Y, **setting, method=method)
-    smoothed = skf_ref.reconstruct(L, Y, **setting, method=method, smoother="rts-standardized")
+    rec = skf_ref.reconstruct(L, Y, **setting, path=method)
+    smoothed = skf_ref.reconstruct(L, Y, **setting, path=method, smoother="rts-standardized")
     difference = max(np.abs(rec.z.T - hand["z"]).max(), np.abs(smoothed.z.T - s).max())
     print(f"{method:8s} largest difference from the lines above: {difference:.1e}")
 
