@@ -63,7 +63,7 @@ start = time.perf_counter()
 store = to_zarr(rec, folder / "skf.zarr", arrays=("z",), chunks=256)
 print(f"written in {time.perf_counter() - start:.1f} s:", store["z"].shape, store["z"].chunks)
 print("z computed in memory meanwhile:", rec.computed("z"))
-print("settings in the store:", {key: store.attrs[key] for key in ("method", "exponent")})
+print("settings in the store:", {key: store.attrs[key] for key in ("path", "exponent")})
 
 # %%
 # Read back, and compared with the output in memory
