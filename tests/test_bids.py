@@ -180,6 +180,30 @@ def test_two_jobs_write_what_one_writes(pristine, tmp_path):
         assert_same_to_rounding(b.data, a.data, rtol=TUNED_RTOL, what=one.name)
 
 
+@pytest.mark.slow  # a Dask cluster started: CI runs it with the slow tests
+@pytest.mark.filterwarnings("ignore:Sending large graph:UserWarning")
+def test_a_dask_cluster_writes_what_one_job_writes(pristine, tmp_path):
+    distributed = pytest.importorskip("distributed", reason="the extra 'dask' is not installed")
+    joblib = pytest.importorskip("joblib")
+    one, there = tmp_path / "one", tmp_path / "dask"
+    for root in (one, there):
+        shutil.copytree(pristine, root)
+    assert skf_ref.apply_skf_bids(one, n_jobs=1)["written"] == _expected(one)
+    with (
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+        joblib.parallel_config(backend="dask"),
+        distributed.get_task_stream(client) as tasks,
+    ):
+        assert skf_ref.apply_skf_bids(there)["written"] == _expected(there)
+    assert len(tasks.data) >= 2  # a subject folder a task, on the cluster
+    for a, b in zip(_expected(one), _expected(there), strict=True):
+        read = mne.read_source_estimate(a), mne.read_source_estimate(b)
+        assert_same_to_rounding(read[1].data, read[0].data, rtol=TUNED_RTOL, what=b.name)
+
+
 def test_the_inputs_are_checked_before_any_work(derivatives):
     folder = derivatives / "sub-02" / "ses-a" / "eeg"
     cov = folder / "sub-02_ses-a_proc-clean_cov.fif"
