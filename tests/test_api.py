@@ -167,6 +167,12 @@ def test_the_surface_is_small_and_each_name_declared_once():
     assert not twice, f"declared in two public modules: {twice}"
 
 
+@pytest.mark.parametrize("module", sorted(PUBLIC_API))
+def test_dir_shows_the_declared_names(module):
+    shown = {name for name in dir(importlib.import_module(module)) if not name.startswith("_")}
+    assert shown == {name for name in PUBLIC_API[module] if not name.startswith("_")}
+
+
 def test_the_file_tree_shows_only_the_public_modules():
     """``ls`` shows the same API as ``__all__``: every other file and folder is private."""
     package = Path(skf_ref.__file__).parent

@@ -49,7 +49,7 @@ def attach(
         namespace[name] = value
         return value
 
-    def __dir__() -> list[str]:
-        return sorted({*namespace, *homes})
+    def __dir__() -> list[str]:  # the declared names (a package may reach more)
+        return sorted(namespace.get("__all__", homes))
 
     return __getattr__, __dir__

@@ -26,6 +26,11 @@ if TYPE_CHECKING:
 
 __all__ = ["main"]
 
+
+def __dir__() -> list[str]:
+    return list(__all__)
+
+
 _INTERRUPTED = "skf-ref: interrupted; files already written are complete"
 
 

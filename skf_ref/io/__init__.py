@@ -24,7 +24,7 @@ they load when a function needs them. Names load on first use; the modules (lead
 underscore) are the implementation, whose paths may change.
 """
 
-import importlib
+from .._utils.lazy import attach
 
 _HOMES = {
     "LeadField": "_files",
@@ -65,14 +65,4 @@ _AT_THE_TOP = {
 
 __all__ = [name for name in _HOMES if name not in _AT_THE_TOP]
 
-
-def __getattr__(name):
-    if name not in _HOMES:
-        raise AttributeError(f"module 'skf_ref.io' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{_HOMES[name]}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted({*globals(), *_HOMES})
+__getattr__, __dir__ = attach(__name__, _HOMES)

@@ -275,7 +275,7 @@ def run_checked(
     if path == "spectral":
         if prepared is None:
             return spectral.run(model, Y, settings, memory_limit)
-        return prepared().checked_apply(Y, settings, memory_limit)
+        return prepared()._checked_apply(Y, settings, memory_limit)
     run = kalman.run if path == "filterpy" else dense.run
     try:
         return run(model, Y, settings)

@@ -189,7 +189,7 @@ def calibrate(
     head : HeadModel
         A cortex + thalamus head.
     sim : Simulation
-        The P20/N20 data set the thresholds are for (:func:`~.scenario.simulate`).
+        The P20/N20 data set the thresholds are for (:func:`~skf_ref.study.simulate`).
     methods : dict
         Name -> callable taking data (n_channels, n_times) in volts and returning the
         position amplitude (n_positions, n_times).

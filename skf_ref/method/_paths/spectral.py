@@ -296,9 +296,9 @@ class SpectralModel:
             exponent, smoother, "spectral", standardize, n_orient, self.n_sources
         )
         check_gaps(settings.smoother, missing)
-        return self.checked_apply(data, settings, memory_limit)
+        return self._checked_apply(data, settings, memory_limit)
 
-    def checked_apply(
+    def _checked_apply(
         self, Y: NDArray[np.float64], settings: Settings, memory_limit: float | None = None
     ) -> Reconstruction:
         """:meth:`apply` on data and settings already checked (the public routes' kernel).
@@ -391,4 +391,4 @@ def run(
     Reconstruction
         Its arrays are computed on first access.
     """
-    return SpectralModel(model, Y.shape[1]).checked_apply(Y, settings, memory_limit)
+    return SpectralModel(model, Y.shape[1])._checked_apply(Y, settings, memory_limit)
