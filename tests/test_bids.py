@@ -204,6 +204,20 @@ def test_a_dask_cluster_writes_what_one_job_writes(pristine, tmp_path):
         assert_same_to_rounding(read[1].data, read[0].data, rtol=TUNED_RTOL, what=b.name)
 
 
+def test_the_group_average_folder_is_left_out_unless_named(derivatives):
+    # the pipeline's sensor/_99_group_average writes the grand average to sub-average/, with
+    # no forward (MNE-BIDS-pipeline 1.10 run on the testing data: validation/bids_pipeline)
+    group = derivatives / "sub-average" / "eeg"
+    group.mkdir(parents=True)
+    shutil.copy(
+        derivatives / "sub-01" / "eeg" / "sub-01_task-audvis_ave.fif",
+        group / "sub-average_task-audvis_proc-clean_ave.fif",
+    )
+    assert skf_ref.apply_skf_bids(derivatives)["written"] == _expected(derivatives)
+    with pytest.raises(InputError, match="sub-average_task-audvis_proc-clean_ave.fif: no forward"):
+        skf_ref.apply_skf_bids(derivatives, subjects=["average"])
+
+
 def test_the_inputs_are_checked_before_any_work(derivatives):
     folder = derivatives / "sub-02" / "ses-a" / "eeg"
     cov = folder / "sub-02_ses-a_proc-clean_cov.fif"

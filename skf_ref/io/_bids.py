@@ -12,7 +12,8 @@ session), in ``DERIVATIVES_ROOT/sub-XX/[ses-YY/]{meg,eeg}/``:
   covariance, with the rank the pipeline uses beside it (``..._rank.json``);
 
 (other entities, ``acq-``, ``rec-``, ``space-``, in the names as the pipeline's configuration
-sets them) and beside each evoked its inverse solutions,
+sets them; the group average's folder ``sub-average/``, with the grand-average evoked only,
+is left out) and beside each evoked its inverse solutions,
 ``sub-XX[_ses-YY]_task-TASK_COND+dSPM+hemi.h5`` (``COND`` the condition without ``/``,
 ``_``, ``-`` or spaces; ``dSPM`` the method). :func:`apply_skf_bids` writes
 ``sub-XX[_ses-YY]_task-TASK_COND+SKF+hemi.h5`` there, MNE's HDF5 source estimate, and
@@ -42,6 +43,10 @@ __all__ = ["DATATYPES", "METHOD", "apply_skf_bids", "find_derivatives", "output_
 
 #: The datatype folders the pipeline writes to.
 DATATYPES = ("meg", "eeg")
+#: The pipeline's group folder (``sensor/_99_group_average`` writes the grand-average
+#: evoked there): no forward, the pipeline makes no inverse there, and it is left out
+#: unless ``subjects`` names it.
+GROUP = "sub-average"
 #: The method's name in the outputs' names, where the pipeline writes ``dSPM``, ``MNE``...
 METHOD = "SKF"
 
@@ -139,7 +144,7 @@ def find_derivatives(
         The pipeline's ``deriv_root`` (by default ``BIDS_ROOT/derivatives/mne-bids-pipeline``).
     subjects : list of str, optional
         The subjects to take, as the pipeline's configuration names them (``"01"``);
-        default every ``sub-*`` folder.
+        default every ``sub-*`` folder but the group average's, ``sub-average``.
     noise_cov : str, optional
         Where a folder holds several noise covariances that fit: a part of the name of the
         one to take (``"proc-clean"``, ``"task-noise"``).
@@ -181,6 +186,8 @@ def find_derivatives(
     for subject in sorted(root.glob("sub-*")):
         if not subject.is_dir() or (chosen is not None and subject.name not in chosen):
             continue
+        if chosen is None and subject.name == GROUP:
+            continue  # the group average: no forward, and the pipeline no inverse, there
         levels = [subject, *sorted(p for p in subject.glob("ses-*") if p.is_dir())]
         for level in levels:
             for datatype in DATATYPES:
@@ -413,7 +420,8 @@ def apply_skf_bids(
     root : path-like
         The pipeline's ``deriv_root`` (``BIDS_ROOT/derivatives/mne-bids-pipeline``).
     subjects : list of str, optional
-        The subjects (``["01", "02"]``, as the pipeline's ``subjects``); default all.
+        The subjects (``["01", "02"]``, as the pipeline's ``subjects``); default all but
+        the group average's ``sub-average``.
     noise_cov : str, optional
         Where a folder holds several noise covariances (the pipeline run with several
         ``noise_cov`` settings): a part of the name of the one to take, e.g.
